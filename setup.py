@@ -1,0 +1,41 @@
+"""Packaging of crawler_motion (ament_python; also installable with plain pip)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "crawler_motion"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    package_data={PACKAGE: ["data/*"]},
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", sorted(glob("config/*"))),
+    ],
+    python_requires=">=3.10",
+    install_requires=[
+        "numpy>=1.24",
+        "pyyaml>=6",
+        "python-can>=4.3",
+        "cantools>=39",
+        "msgpack>=1.0",
+        "matplotlib>=3.7",
+        "scipy>=1.10",
+    ],
+    extras_require={"test": ["pytest>=7", "hypothesis>=6.80", "ruff>=0.5"]},
+    zip_safe=True,
+    maintainer="crawler_motion maintainers",
+    maintainer_email="maintainers@crawler-motion.invalid",
+    description="Motion controller of a four-legged underwater crawling robot on CAN motors.",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "crawler-motion = crawler_motion.cli:main",
+        ],
+    },
+)

@@ -1,0 +1,10 @@
+"""Session-wide test settings: an isolated ROS graph per test session."""
+
+from __future__ import annotations
+
+import os
+import random
+
+# Before any rclpy import: keep parallel sessions on this machine from hearing each other.
+os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 101)))
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
