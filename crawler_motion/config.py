@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import yaml
@@ -37,7 +38,7 @@ def config_dir() -> Path:
         share = Path(get_package_share_directory(PACKAGE)) / "config"
         if (share / "robot.yaml").is_file():
             return share
-    except Exception:  # noqa: BLE001 - ament index absent or package not registered
+    except Exception:
         pass
     share = Path(sys.prefix) / "share" / PACKAGE / "config"
     if (share / "robot.yaml").is_file():
@@ -185,7 +186,7 @@ def parse_robot(data: Mapping[str, Any], where: str = "robot") -> RobotConfig:
     legs = tuple(legs_raw)
     hips_raw = _per_leg(_section(data, "hips", where), legs, f"{where}.hips")
     hips = np.zeros((4, 3))
-    for i, (leg, hip) in enumerate(zip(legs, hips_raw)):
+    for i, (leg, hip) in enumerate(zip(legs, hips_raw, strict=True)):
         if not isinstance(hip, list) or len(hip) != 3:
             raise ConfigError(f"{where}.hips.{leg} must be [x, y, z] in m, got {hip!r}")
         hips[i] = [_number(v, f"{where}.hips.{leg}") for v in hip]
@@ -193,7 +194,7 @@ def parse_robot(data: Mapping[str, Any], where: str = "robot") -> RobotConfig:
                     for v in _per_leg(_section(data, "neutral_yaw", where), legs,
                                       f"{where}.neutral_yaw")])
     knees = _per_leg(_section(data, "knee", where), legs, f"{where}.knee")
-    for leg, knee in zip(legs, knees):
+    for leg, knee in zip(legs, knees, strict=True):
         if knee not in ("up", "down"):
             raise ConfigError(f"{where}.knee.{leg} must be 'up' or 'down', got {knee!r}")
     knee_sign = np.array([1.0 if k == "up" else -1.0 for k in knees])

@@ -279,7 +279,7 @@ def check_trajectories(robot: RobotConfig, legs: tuple[Piecewise, ...], what: st
     Raises `GaitError` (with the kinematics reason and the time) if any sample fails.
     """
     t0, t1 = legs[0].t0, legs[0].t_end
-    n = max(2, int(math.ceil((t1 - t0) / CHECK_PERIOD)) + 1)
+    n = max(2, math.ceil((t1 - t0) / CHECK_PERIOD) + 1)
     times = np.unique(np.concatenate([np.linspace(t0, t1, n)] + [leg.breaks for leg in legs]))
     feet = np.stack([leg.evaluate(times)[0] for leg in legs], axis=1)
     try:
