@@ -9,8 +9,9 @@ import argparse
 import csv
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import NoReturn, Sequence
+from typing import NoReturn
 
 import numpy as np
 
@@ -32,7 +33,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def _finite(kind: str, positive: bool = False, nonneg: bool = False):  # noqa: ANN202
+def _finite(kind: str, positive: bool = False, nonneg: bool = False):
     def convert(text: str) -> float:
         try:
             value = float(text)
@@ -61,7 +62,7 @@ def _positive_int(text: str) -> int:
 
 def sample_times(duration: float, rate: float) -> np.ndarray:
     """Times from 0 to ``duration`` [s] at ``rate`` [Hz], both ends included."""
-    n = int(math.floor(duration * rate + 1e-9))
+    n = math.floor(duration * rate + 1e-9)
     times = np.arange(n + 1) / rate
     if duration - times[-1] > 1e-9:
         times = np.append(times, duration)
