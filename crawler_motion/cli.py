@@ -199,7 +199,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: Subcommands implemented in their own modules (they parse their own arguments).
-_EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = ()
+_EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
+    ("console", "crawler_motion.console", "send gait commands/twists, follow the planner"),
+    ("demo", "crawler_motion.demo", "the whole stack on a virtual CAN bus, walking"),
+)
 
 
 def _fill_defaults(args: argparse.Namespace, cfg: Config) -> None:

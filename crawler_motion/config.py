@@ -228,6 +228,12 @@ def parse_robot(data: Mapping[str, Any], where: str = "robot") -> RobotConfig:
                           f"body_height_range {list(rng_t)}")
     if reach <= l1:
         raise ConfigError(f"{where}.stance.reach {reach} m must exceed the coxa l1 = {l1} m")
+    knee_lo, knee_hi = lower[-1], upper[-1]
+    for leg, knee in zip(legs, knees, strict=True):
+        if (knee == "up" and knee_hi <= 0.0) or (knee == "down" and knee_lo >= 0.0):
+            raise ConfigError(f"{where}.knee.{leg} is '{knee}' (knee angle "
+                              f"{'> 0' if knee == 'up' else '< 0'}) but {where}.limits.knee "
+                              f"[{knee_lo}, {knee_hi}] allows no such angle")
     return RobotConfig(legs=legs, hips=hips, neutral_yaw=yaw, knee_sign=knee_sign,
                        l1=l1, l2=l2, l3=l3, lower=np.array(lower), upper=np.array(upper),
                        velocity=np.array(vel), effort=np.array(eff), reach=reach,
@@ -241,8 +247,11 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
     gaits: dict[str, tuple[tuple[str, ...], ...]] = {}
     for name, table in gaits_raw.items():
         groups = table.get("groups") if isinstance(table, Mapping) else None
-        if not isinstance(groups, list) or len(groups) < 2:
-            raise ConfigError(f"{where}.gaits.{name}.groups must list >= 2 groups of legs")
+        if (not isinstance(groups, list) or len(groups) < 2
+                or not all(isinstance(group, list) and group
+                           and all(isinstance(leg, str) for leg in group) for group in groups)):
+            raise ConfigError(f"{where}.gaits.{name}.groups must list >= 2 groups (lists) of "
+                              f"leg names, got {groups!r}")
         flat = [leg for group in groups for leg in group]
         if sorted(flat) != sorted(legs):
             raise ConfigError(f"{where}.gaits.{name}: every leg {list(legs)} must swing exactly "
@@ -265,6 +274,8 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
         if needed not in profiles:
             raise ConfigError(f"{where}.profiles must define '{needed}'")
     rng = data.get("swing_time_range", [0.1, 5.0])
+    if not isinstance(rng, list) or len(rng) != 2:
+        raise ConfigError(f"{where}.swing_time_range must be [min, max] in s, got {rng!r}")
     cfg = GaitConfig(
         gait=str(data.get("gait", "diagonal")), profile=str(data.get("profile", "smooth")),
         stride=_number(data.get("stride"), f"{where}.stride"),
@@ -278,6 +289,9 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
         swing_time_range=(_positive(rng[0], f"{where}.swing_time_range"),
                           _positive(rng[1], f"{where}.swing_time_range")),
         gaits=gaits, profiles=profiles)
+    if cfg.swing_time_range[0] > cfg.swing_time_range[1]:
+        raise ConfigError(f"{where}.swing_time_range must be [min, max] with min <= max, "
+                          f"got {list(cfg.swing_time_range)}")
     if cfg.gait not in gaits:
         raise ConfigError(f"{where}.gait '{cfg.gait}' is not one of {sorted(gaits)}")
     if cfg.profile not in profiles:
@@ -292,6 +306,8 @@ def load_config(path: str | Path | None = None) -> Config:
         text = file.read_text(encoding="utf-8")
     except OSError as exc:
         raise ConfigError(f"cannot read config file {file}: {exc.strerror}") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"cannot read config file {file}: not UTF-8 text ({exc})") from exc
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

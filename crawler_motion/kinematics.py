@@ -20,6 +20,12 @@ from crawler_motion.errors import JointLimitError, KinematicsError, UnreachableE
 
 #: Relative slack on the workspace boundary that is attributed to rounding, not to the target.
 _REACH_EPS = 1e-12
+#: IK angles this close outside a joint limit [rad] are rounding noise of the closed form (e.g.
+#: the IK of the FK of a pose at a limit) and are set onto the limit; farther out is an error.
+_LIMIT_EPS = 1e-9
+#: Horizontal distance [m] of the foot from the root axis below which the root angle (IK) and
+#: the root rate (Jacobian) are undefined.
+_AXIS_EPS = 1e-9
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
@@ -52,9 +58,11 @@ def check_limits(robot: RobotConfig, q: np.ndarray) -> None:
         idx = _first(bad)
         leg, joint = idx[-2], idx[-1]
         where = f" at sample {idx[:-2]}" if len(idx) > 2 else ""
+        lo, hi = robot.lower[joint], robot.upper[joint]
+        side, excess = ("below", lo - arr[idx]) if below[idx] else ("above", arr[idx] - hi)
         raise JointLimitError(
             f"leg {robot.legs[leg]} {JOINT_KINDS[joint]} joint: {arr[idx]:.4f} rad is outside "
-            f"its limits [{robot.lower[joint]:.4f}, {robot.upper[joint]:.4f}] rad{where} "
+            f"its limits [{lo:.4f}, {hi:.4f}] rad ({excess:.3g} rad {side}){where} "
             f"({int(bad.sum())} violation(s) in all)")
 
 
@@ -62,7 +70,10 @@ def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True)
     """Joint angles ``(..., n_legs, 3)`` [rad] placing every foot at ``feet`` [m].
 
     Raises `UnreachableError` for a target outside a leg's workspace and, with ``check``,
-    `JointLimitError` for an angle outside the limits. Never returns NaN, never clips.
+    `JointLimitError` for an angle outside the limits. Never returns NaN, never clips (angles
+    within ``_LIMIT_EPS`` of a limit are rounding noise and are returned exactly on it). The
+    solution keeps the foot on the leg's side of the root axis (r > 0) with the knee sign given
+    by ``robot.knee_sign``; angles are returned in (-pi, pi].
     """
     p = _as_feet(feet, robot.n_legs, "foot targets")
     q = p - robot.hips
@@ -73,7 +84,7 @@ def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True)
     l2, l3 = robot.l2, robot.l3
     d_max, d_min = l2 + l3, abs(l2 - l3)
     d = np.sqrt(d2)
-    bad = (d > d_max * (1 + _REACH_EPS)) | (d < d_min * (1 - _REACH_EPS)) | (r < 1e-9)
+    bad = (d > d_max * (1 + _REACH_EPS)) | (d < d_min * (1 - _REACH_EPS)) | (r < _AXIS_EPS)
     if np.any(bad):
         idx = _first(bad)
         leg = idx[-1]
@@ -84,9 +95,12 @@ def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True)
             f"shoulder; reachable is [{d_min:.4f}, {d_max:.4f}] m (and off the root axis)")
     cos_knee = np.clip((d2 - l2 * l2 - l3 * l3) / (2 * l2 * l3), -1.0, 1.0)  # rounding only
     knee = robot.knee_sign * np.arccos(cos_knee)
-    shoulder = np.arctan2(w, u) + np.arctan2(l3 * np.sin(knee), l2 + l3 * np.cos(knee))
+    shoulder = _wrap(np.arctan2(w, u) + np.arctan2(l3 * np.sin(knee), l2 + l3 * np.cos(knee)))
     root = _wrap(np.arctan2(q[..., 1], q[..., 0]) - robot.neutral_yaw)
     angles = np.stack((root, shoulder, knee), axis=-1)
+    lower, upper = robot.lower, robot.upper
+    angles = np.where((angles < lower) & (angles >= lower - _LIMIT_EPS), lower, angles)
+    angles = np.where((angles > upper) & (angles <= upper + _LIMIT_EPS), upper, angles)
     if check:
         check_limits(robot, angles)
     return angles
@@ -108,8 +122,10 @@ def joint_velocities(robot: RobotConfig, angles: np.ndarray, foot_velocity: np.n
                      ) -> np.ndarray:
     """Joint rates ``(..., n_legs, 3)`` [rad/s] producing ``foot_velocity`` [m/s] at ``angles``.
 
-    Analytic inverse of the leg Jacobian; the leg is singular only with the knee straight
-    (knee = 0), which the limits exclude. Raises `KinematicsError` near that singularity.
+    Analytic inverse of the leg Jacobian; the leg is singular with the knee straight
+    (knee = 0, which the limits exclude) and with the foot on the root axis (r = 0, which the
+    limits allow: e.g. the foot tucked right under the hip). Raises `KinematicsError` near
+    either singularity.
     """
     a = np.asarray(angles, dtype=float)
     v = np.asarray(foot_velocity, dtype=float)
@@ -119,6 +135,9 @@ def joint_velocities(robot: RobotConfig, angles: np.ndarray, foot_velocity: np.n
     u = robot.l2 * np.cos(shoulder) + robot.l3 * np.cos(tibia)
     r = robot.l1 + u
     cy, sy = np.cos(yaw), np.sin(yaw)
+    if np.any(np.abs(r) < _AXIS_EPS):
+        raise KinematicsError("leg Jacobian is singular (foot on the root axis); "
+                              "root rate undefined")
     r_dot = cy * v[..., 0] + sy * v[..., 1]
     root_dot = (-sy * v[..., 0] + cy * v[..., 1]) / r
     w_dot = v[..., 2]
