@@ -125,6 +125,7 @@ class GaitSequencer:
         self.phase = "standing"  # standing -> start -> steady -> stop -> standing
         self._group_index = 0  # next group to swing (index into the gait table)
         self._count = 0  # slots done in the current phase
+        self._slot_params = self.params  # parameters of the last planned slot
 
     @property
     def n_groups(self) -> int:
@@ -137,7 +138,11 @@ class GaitSequencer:
         return self.phase == "standing"
 
     def set_params(self, params: WalkParams) -> None:
-        """New parameters, effective at the next slot. A gait change only while standing."""
+        """New parameters, effective at the next slot. A gait change only while standing.
+
+        A stop in progress (or starting at the next slot) finishes with the parameters of the
+        last slot walked: its half steps assume the offsets that slot left.
+        """
         new = validate_params(params, self.cfg)
         if new.gait != self.params.gait and not self.standing:
             raise GaitError("the gait can only change while standing; stop first")
@@ -177,6 +182,8 @@ class GaitSequencer:
             self.phase, self._count, self._group_index = "start", 0, 0
         if self.phase == "steady" and stopping:
             self.phase, self._count = "stop", 0
+        if self.phase == "stop":
+            p = self._slot_params
         slot_time, b, e = self._fractions(p)
         stride = self.stride_vectors(p)
         k = self._count
@@ -194,6 +201,7 @@ class GaitSequencer:
         slot = self._build(group, target, inc, stride, slot_time, p)
         kind = self.phase
         self.offsets = slot.offsets_end
+        self._slot_params = p
         self._group_index = (self._group_index + 1) % n
         self._count += 1
         if self.phase == "start" and self._count == n - 1:
