@@ -27,6 +27,9 @@ from crawler_motion.trajectory import Piecewise, Segment, SwingShape, rest_segme
 
 #: Sampling period used to check a planned walk against the workspace and the limits [s].
 CHECK_PERIOD = 0.005
+#: Smallest arc/lift ratio for profiles with a junction speed at B (below it the arc dips under
+#: B's height: with the shipped smooth profile the bound is 0.0245).
+MIN_ARC_RATIO = 0.05
 
 
 @dataclass(frozen=True)
@@ -77,6 +80,11 @@ def validate_params(params: WalkParams, cfg: Config) -> WalkParams:
     in_range("turn", params.turn, -g.max_turn, g.max_turn, "rad")
     in_range("lift", params.lift, 1e-3, g.max_clearance, "m")
     in_range("arc", params.arc, 0.0, g.max_clearance - params.lift, "m")
+    if params.profile in g.profiles and g.profiles[params.profile].v_b > 0 and (
+            params.arc < MIN_ARC_RATIO * params.lift):
+        raise GaitError(f"arc = {params.arc} m: the {params.profile} profile reaches B still "
+                        f"rising and needs arc >= {MIN_ARC_RATIO} x lift = "
+                        f"{MIN_ARC_RATIO * params.lift:.4g} m to stay above B on the arc")
     in_range("swing_time", params.swing_time, *g.swing_time_range, "s")
     n = len(g.gaits[params.gait])
     minimum = (n - 1) * params.swing_time

@@ -393,7 +393,7 @@ walks = st.fixed_dictionaries({
     "heading": st.floats(-math.pi, math.pi),
     "turn": st.floats(-GAIT.max_turn, GAIT.max_turn),
     "lift": st.floats(1e-3, 0.02),
-    "arc": st.floats(0.0, 0.02),
+    "arc": st.floats(0.002, 0.02),
     "swing_time": st.floats(0.2, 0.8),
     "stance_factor": st.floats(1.0, 2.0),
     "body_height": st.floats(*ROBOT.body_height_range),
@@ -470,6 +470,7 @@ def test_any_walk_within_the_limits(d, steps):
     ({"profile": "quartic"}, "profile"),
     ({"lift": 0.0}, "lift"),
     ({"lift": 0.03, "arc": 0.02}, "arc"),  # above max_clearance
+    ({"arc": 0.0}, "arc = 0.0 m: the smooth profile"),  # arc dips below B (rest allows 0)
     ({"swing_time": GAIT.swing_time_range[1] * 2}, "swing_time"),
 ])
 def test_plan_walk_refuses_bad_parameters(overrides, field):
@@ -638,3 +639,8 @@ def test_gait_and_body_height_change_only_while_standing():
     walk_online(seq, 2)
     seq.set_params(params(gait="wave"))
     assert seq.n_groups == 4
+
+
+def test_rest_profile_accepts_a_zero_arc():
+    plan = plan_walk(CFG, WalkParams.defaults(GAIT, profile="rest", arc=0.0), 1)
+    assert plan.duration > 0
