@@ -22,6 +22,10 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(PY) -m ruff check crawler_motion test scripts
 
+bench: $(STAMP)
+	$(PY) scripts/bench.py
+	$(PY) scripts/smoothness_report.py --out plots
+
 plots: $(STAMP)
 	$(VENV)/bin/crawler-motion plot --out plots
 

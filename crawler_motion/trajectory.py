@@ -134,7 +134,7 @@ class Piecewise:
         if not segments:
             raise TrajectoryError("a piecewise trajectory needs at least one segment")
         dims = {seg.coeffs.shape for seg in segments}
-        degree = max(seg.coeffs.shape[-1] for seg in segments)
+        degree = max(seg.coeffs.shape[-1] for seg in segments) - 1
         if len({shape[0] for shape in dims}) != 1:
             raise TrajectoryError(f"segments differ in dimension: {sorted(dims)}")
         self.segments: tuple[Segment, ...] = tuple(segments)
