@@ -36,6 +36,9 @@ setup(
     entry_points={
         "console_scripts": [
             "crawler-motion = crawler_motion.cli:main",
+            "planner_node = crawler_motion.planner_node:main",
+            "motor_manager_sim = crawler_motion.motor_manager_sim:main",
+            "driver_node = crawler_motion.driver_node:main",
         ],
     },
 )
