@@ -147,7 +147,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         from sensor_msgs.msg import JointState
 
         console = Console("crawler_demo")
-        console.printer = lambda line: say(f"planner: {line}")
+        console.printer = lambda line: say(f"planner: {line.split('] ', 1)[-1]}")
         latest_cmd: dict[str, np.ndarray] = {}
         errors: list[float] = []
         measured: dict[str, np.ndarray] = {}
