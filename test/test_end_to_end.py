@@ -1,0 +1,171 @@
+"""End to end, launch-free: planner, driver and simulated manager as separate processes on a
+cross-process virtual CAN bus (python-can ``udp_multicast``), driven from this test."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+
+can = pytest.importorskip("can")
+rclpy = pytest.importorskip("rclpy")
+
+from can.interfaces.udp_multicast import UdpMulticastBus  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+
+from crawler_motion.config import load_config  # noqa: E402
+from crawler_motion.console import Console  # noqa: E402
+from crawler_motion.errors import ProtocolError  # noqa: E402
+from crawler_motion.kinematics import forward_kinematics  # noqa: E402
+from crawler_motion.protocol import MotorProtocol, TargetFrame  # noqa: E402
+
+CFG = load_config()
+NAMES = list(CFG.robot.joint_names)
+PROTOCOL = MotorProtocol.from_config(CFG.robot)
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("", 0))
+        return int(s.getsockname()[1])
+
+
+class Tap:
+    """Decodes every target frame on the bus (a passive listener)."""
+
+    def __init__(self, port: int) -> None:
+        self.bus = can.Bus(interface="udp_multicast", channel=UdpMulticastBus.DEFAULT_GROUP_IPv4,
+                           port=port, receive_own_messages=False)
+        self.targets: list[tuple[float, dict[str, float]]] = []
+        self.controls: list[str] = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            msg = self.bus.recv(timeout=0.05)
+            if msg is None:
+                continue
+            try:
+                frame = PROTOCOL.decode(msg)
+            except ProtocolError:
+                continue
+            if isinstance(frame, TargetFrame):
+                self.targets.append((time.monotonic(), dict(frame.positions)))
+            elif type(frame).__name__ == "ControlFrame":
+                self.controls.append(frame.command)  # type: ignore[attr-defined]
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(2.0)
+        self.bus.shutdown()
+
+
+@pytest.fixture()
+def stack() -> Iterator[dict[str, Any]]:
+    port = _free_port()
+    group = UdpMulticastBus.DEFAULT_GROUP_IPv4
+    py = sys.executable
+    env = os.environ.copy()
+    tap = Tap(port)
+    procs = {
+        "sim": subprocess.Popen([py, "-m", "crawler_motion.motor_manager_sim", "--port",
+                                 str(port), "--speed-limit", "6.0"], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
+        "driver": subprocess.Popen([py, "-m", "crawler_motion.driver_node", "--ros-args", "-p",
+                                    "autostart:=true", "-p", f"can_channel:={group}", "-p",
+                                    f"can_port:={port}"], env=env, stdout=subprocess.DEVNULL,
+                                   stderr=subprocess.DEVNULL),
+        "planner": subprocess.Popen([py, "-m", "crawler_motion.planner_node", "--ros-args",
+                                     "-p", "rate:=100.0"], env=env,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
+    }
+    rclpy.init()
+    console = Console("e2e_console")
+    console.printer = lambda _line: None
+    record: dict[str, list[Any]] = {"commands": [], "states": []}
+
+    def on_cmd(msg: JointState) -> None:
+        record["commands"].append((time.monotonic(), list(msg.name), np.array(msg.position)))
+
+    def on_state(msg: JointState) -> None:
+        record["states"].append((time.monotonic(), list(msg.name), np.array(msg.position)))
+
+    console.node.create_subscription(JointState, "joint_commands", on_cmd, 100)
+    console.node.create_subscription(JointState, "joint_states", on_state, 100)
+    try:
+        yield {"console": console, "tap": tap, "record": record, "procs": procs}
+    finally:
+        console.close()
+        rclpy.try_shutdown()
+        tap.close()
+        for proc in procs.values():
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        for proc in procs.values():
+            try:
+                proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+
+
+def test_walk_end_to_end_on_a_cross_process_bus(stack: dict[str, Any]) -> None:
+    console: Console = stack["console"]
+    tap: Tap = stack["tap"]
+    record = stack["record"]
+    assert console.connect(30.0), "planner did not come up"
+    assert console.wait_until(lambda: len(record["states"]) > 5, 30.0), "no joint_states"
+    ok, message = console.run({"command": "stand"}, 30.0)
+    assert ok, message
+    record["commands"].clear()
+    t_walk = time.monotonic()
+    ok, message = console.run({"command": "walk", "steps": 1}, 30.0)
+    assert ok, message
+    t_end = time.monotonic()
+    console.spin_for(0.6)
+
+    # joint_commands at the set rate (100 Hz) within 10 %
+    stamps = [t for t, _, _ in record["commands"] if t_walk + 0.2 <= t <= t_end - 0.2]
+    rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+    assert 90.0 <= rate <= 110.0, rate
+    assert all(names == NAMES for _, names, _ in record["commands"])
+
+    # every decoded target frame equals some planner command within the DBC's resolution
+    commands = [(t, q) for t, _, q in record["commands"]]
+    res = PROTOCOL.resolution_rad
+    checked = 0
+    for t_frame, positions in tap.targets:
+        if not t_walk + 0.1 <= t_frame <= t_end:
+            continue
+        idx = [NAMES.index(n) for n in positions]
+        values = np.array(list(positions.values()))
+        recent = [q for t, q in commands if t_frame - 0.5 <= t <= t_frame + 0.5]
+        best = min(np.abs(q[idx] - values).max() for q in recent)
+        assert best <= res / 2 + 1e-9, (best, positions)
+        checked += 1
+    assert checked > 100
+
+    # measured joint_states converge to the last command; feet back at standing
+    last_cmd = record["commands"][-1][2]
+    measured = record["states"][-1][2]
+    assert np.abs(measured - last_cmd).max() < 0.01
+    feet = forward_kinematics(CFG.robot, measured.reshape(4, 3))
+    np.testing.assert_allclose(feet, CFG.robot.standing_feet(), atol=1e-3)
+
+
+def test_demo_command_runs_and_exits_zero() -> None:
+    proc = subprocess.run([sys.executable, "-m", "crawler_motion.cli", "demo", "--steps", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "summary" in proc.stdout
+    assert "final state           STANDING" in proc.stdout
