@@ -22,6 +22,11 @@ E-stop. `estop` latches within the call and sends the e-stop frame (retried unti
 re-sent after a reopen and whenever the heartbeat reports the manager out of ``estop``). Only
 `reset` clears the latch, and the motors then need `enable` again.
 
+An ``enable`` is confirmed by the first heartbeat reporting ``enabled``. Until then, a heartbeat
+reporting ``disabled`` (the manager came up after the enable, or the frame was lost) makes the
+core send ``enable`` again, at most `MAX_ENABLE_RESENDS` times; a manager that confirmed and later
+fell back to ``disabled`` (e.g. rebooted) is reported as an ERROR and needs an explicit `enable`.
+
 Bus faults. Every send is tried ``1 + send_retries`` times without waiting; errors are counted.
 A receive error, or `FAILED_FRAMES_BEFORE_REOPEN` frames in a row that could not be sent, mark
 the bus down: an owned bus (from the factory) is shut down and rebuilt every ``reopen_period``,
@@ -69,6 +74,8 @@ SEND_TIMEOUT = 0.0
 FAILED_FRAMES_BEFORE_REOPEN = 3
 #: Frames taken off the bus per `DriverCore.poll` at most (a flooding bus cannot stall the loop).
 MAX_FRAMES_PER_POLL = 500
+#: Re-sends of an ``enable`` the manager never confirmed (it reports ``disabled`` instead).
+MAX_ENABLE_RESENDS = 3
 #: Period of the background loop of `DriverCore.start` [s]: watchdog and reopen resolution.
 TICK_PERIOD = 0.005
 #: Used when the DBC gives no cycle time.
@@ -353,6 +360,8 @@ class DriverCore:
         self._last_control: tuple[str, float] | None = None
         self._last_estop_tx = -math.inf
         self._last_enable_tx = -math.inf
+        self._enable_confirmed = False
+        self._enable_resends = 0
         # feedback
         self._reset_feedback()
         self._log_times: dict[str, float] = {}
@@ -625,6 +634,7 @@ class DriverCore:
                 self._last_estop_tx = now
             elif command == "enable":
                 self._last_enable_tx = now
+                self._enable_confirmed = False
         if self._pending_targets:
             if not self.motion_allowed:
                 self._pending_targets = []
@@ -679,6 +689,7 @@ class DriverCore:
             return self._enable_locked()
 
     def _enable_locked(self) -> tuple[bool, str]:
+        self._enable_resends = 0
         self._enabled = True
         self._tripped = False
         self._armed = False
@@ -875,6 +886,16 @@ class DriverCore:
             if (self._estop and frame.state != "estop" and self._pending_control is None
                     and now - self._last_estop_tx > self._hb_period):
                 self._control("estop")  # the manager left (or never saw) the e-stop
+            elif frame.state == "enabled":
+                self._enable_confirmed = True
+            elif (frame.state == "disabled" and self._enabled and not self._enable_confirmed
+                  and not self._tripped and self._pending_control is None
+                  and now - self._last_enable_tx > self._hb_period
+                  and self._enable_resends < MAX_ENABLE_RESENDS):
+                # our enable never arrived (the manager came up after it): send it again; a
+                # manager that had confirmed it and fell back to disabled needs ~/enable
+                self._enable_resends += 1
+                self._control("enable")
         else:  # a target or control frame: our own echo or another controller
             self._n["rx_ignored"] += 1
         return None

@@ -372,6 +372,44 @@ def test_estop_is_reasserted_when_the_manager_leaves_it(rig):
     assert rig.sim.state == "estop"
 
 
+def _late_manager(rig: Rig) -> None:
+    """Replace the rig's manager by one that joins the bus only now (it missed everything)."""
+    rig.sim_bus.shutdown()
+    rig.sim_bus = can.Bus(interface="virtual", channel=rig.channel)
+    rig.sim = MotorManagerSim(rig.sim_bus, rig.proto, rate=100.0, heartbeat_period=0.1,
+                              command_timeout=1.0, initial_positions=STAND)
+
+
+def test_an_enable_sent_before_the_manager_listened_is_resent(proto):
+    rig = Rig(proto, sim=False)
+    try:
+        assert rig.core.activate()[0]  # nobody listens yet: the enable is lost
+        rig.clock.advance(0.5)
+        _late_manager(rig)
+        rig.run(0.3, STAND)
+        assert rig.sim.state == "enabled"
+        assert controls(rig.collect()) == ["enable", "enable"]
+        np.testing.assert_allclose(rig.feedback[-1], STAND, atol=RES)
+        assert rig.entry("motor manager").level == OK
+    finally:
+        rig.close()
+
+
+def test_a_manager_that_fell_back_to_disabled_is_not_re_enabled_silently(rig):
+    rig.core.activate()
+    rig.run(0.3, STAND)
+    assert rig.sim.state == "enabled"
+    _late_manager(rig)  # the manager rebooted: disabled, after having confirmed our enable
+    rig.collect()
+    rig.run(0.3, STAND)
+    assert rig.sim.state == "disabled" and controls(rig.collect()) == []
+    entry = rig.entry("motor manager")
+    assert entry.level == ERROR and "call ~/enable" in entry.message
+    assert rig.core.enable()[0]
+    rig.run(0.1, STAND)
+    assert rig.sim.state == "enabled"
+
+
 def test_send_errors_are_counted_and_retries_are_bounded(proto):
     rig = Rig(proto, flaky=True, send_retries=2)
     try:
