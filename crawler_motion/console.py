@@ -227,6 +227,18 @@ class Console:
             return False, f"timed out after {timeout:g} s in {describe(self.status or {})}"
         return True, describe(self.status or {})
 
+    def run_when_ready(self, command: dict[str, Any], timeout: float, attempts: int = 5
+                       ) -> tuple[bool, str]:
+        """`run`, retried while the planner refuses only because it is paused (a transient
+        motor-manager fault such as a late heartbeat), waiting for the pause to clear."""
+        ok, message = self.run(command, timeout)
+        for _ in range(attempts - 1):
+            if ok or "paused" not in message:
+                break
+            self.wait_until(lambda: not (self.status or {}).get("paused"), timeout)
+            ok, message = self.run(command, timeout)
+        return ok, message
+
     def close(self) -> None:
         """Destroy the node."""
         self.node.destroy_node()

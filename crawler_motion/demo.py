@@ -177,7 +177,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for command in ({"command": "stand"},
                         {"command": "walk", "steps": args.steps, "gait": args.gait}):
             say(f"operator: {command}")
-            ok, message = console.run(command, args.timeout)
+            ok, message = console.run_when_ready(command, args.timeout)
             if not ok:
                 raise RuntimeError(f"{command['command']}: {message}")
         console.spin_for(0.5)

@@ -131,11 +131,11 @@ def test_walk_end_to_end_on_a_cross_process_bus(stack: dict[str, Any]) -> None:
     record = stack["record"]
     assert console.connect(30.0), "planner did not come up"
     assert console.wait_until(lambda: len(record["states"]) > 5, 30.0), "no joint_states"
-    ok, message = console.run({"command": "stand"}, 30.0)
+    ok, message = console.run_when_ready({"command": "stand"}, 30.0)
     assert ok, message
     record["commands"].clear()
     t_walk = time.monotonic()
-    ok, message = console.run({"command": "walk", "steps": 1}, 30.0)
+    ok, message = console.run_when_ready({"command": "walk", "steps": 1}, 30.0)
     assert ok, message
     t_end = time.monotonic()
     console.spin_for(0.6)
