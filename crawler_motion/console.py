@@ -233,8 +233,9 @@ class Console:
         motor-manager fault such as a late heartbeat), waiting for the pause to clear."""
         ok, message = self.run(command, timeout)
         for _ in range(attempts - 1):
-            if ok or "paused" not in message:
+            if ok or ("paused" not in message and "no measured" not in message):
                 break
+            self.spin_for(0.5)
             self.wait_until(lambda: not (self.status or {}).get("paused"), timeout)
             ok, message = self.run(command, timeout)
         return ok, message
