@@ -11,10 +11,10 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import NoReturn
 
 import numpy as np
 
+from crawler_motion.cli_args import OneLineParser, finite_number, positive_int
 from crawler_motion.config import JOINT_KINDS, Config, load_config
 from crawler_motion.errors import CrawlerMotionError
 from crawler_motion.gait import WalkParams, plan_walk
@@ -23,41 +23,6 @@ from crawler_motion.trajectory import Piecewise, SwingShape, step_cycle
 
 PROG = "crawler-motion"
 TRAJECTORY_HEADER = ("t,phase,x,y,z,vx,vy,vz,ax,ay,az,q_root,q_shoulder,q_knee").split(",")
-
-
-class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are a single line."""
-
-    def error(self, message: str) -> NoReturn:
-        """Print ``<prog>: error: <message>`` and exit with status 2."""
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-def _finite(kind: str, positive: bool = False, nonneg: bool = False):
-    def convert(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{kind} must be a number, got {text!r}") from None
-        if not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"{kind} must be finite, got {text!r}")
-        if positive and value <= 0:
-            raise argparse.ArgumentTypeError(f"{kind} must be > 0, got {text}")
-        if nonneg and value < 0:
-            raise argparse.ArgumentTypeError(f"{kind} must be >= 0, got {text}")
-        return value
-
-    return convert
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
 
 
 def sample_times(duration: float, rate: float) -> np.ndarray:
@@ -151,36 +116,36 @@ def cmd_plot(args: argparse.Namespace, cfg: Config) -> int:
 def _add_step_options(p: argparse.ArgumentParser, cfg_defaults: bool = True) -> None:
     p.add_argument("--profile", choices=("rest", "smooth"), default=None if not cfg_defaults
                    else "smooth", help="trajectory profile (default: smooth)")
-    p.add_argument("--stride", type=_finite("stride", nonneg=True), default=None,
+    p.add_argument("--stride", type=finite_number("stride", nonneg=True), default=None,
                    help="stride length [m] (default from config)")
-    p.add_argument("--heading", type=_finite("heading"), default=None,
+    p.add_argument("--heading", type=finite_number("heading"), default=None,
                    help="direction of the stride in the body frame [rad] (default 0: forward)")
-    p.add_argument("--lift", type=_finite("lift", positive=True), default=None,
+    p.add_argument("--lift", type=finite_number("lift", positive=True), default=None,
                    help="A->B rise [m]")
-    p.add_argument("--arc", type=_finite("arc", nonneg=True), default=None,
+    p.add_argument("--arc", type=finite_number("arc", nonneg=True), default=None,
                    help="apex C above B [m]")
-    p.add_argument("--swing-time", type=_finite("swing time", positive=True), default=None,
+    p.add_argument("--swing-time", type=finite_number("swing time", positive=True), default=None,
                    help="swing time [s]")
-    p.add_argument("--stance-time", type=_finite("stance time", positive=True), default=None,
+    p.add_argument("--stance-time", type=finite_number("stance time", positive=True), default=None,
                    help="stance time [s]")
-    p.add_argument("--rate", type=_finite("rate", positive=True), default=100.0,
+    p.add_argument("--rate", type=finite_number("rate", positive=True), default=100.0,
                    help="sample rate [Hz] (default 100)")
     p.add_argument("--config", default=None, help="robot YAML (default: the shipped one)")
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``crawler-motion``."""
-    parser = _Parser(prog=PROG, description="Motion controller of a four-legged crawler.")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    parser = OneLineParser(prog=PROG, description="Motion controller of a four-legged crawler.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     p = sub.add_parser("trajectory", help="one cycle of one leg as CSV (t = 0 at lift-off)")
     p.add_argument("--leg", choices=("lf", "lb", "rb", "rf"), default="lf")
     _add_step_options(p)
     p.set_defaults(func=cmd_trajectory)
     p = sub.add_parser("walk", help="a whole walk (half steps in and out) as CSV")
-    p.add_argument("--steps", type=_positive_int, default=2, help="gait cycles (default 2)")
+    p.add_argument("--steps", type=positive_int, default=2, help="gait cycles (default 2)")
     p.add_argument("--gait", default=None, help="diagonal | wave (default from config)")
-    p.add_argument("--turn", type=_finite("turn"), default=None, help="yaw per step [rad]")
-    p.add_argument("--body-height", type=_finite("body height", positive=True), default=None,
+    p.add_argument("--turn", type=finite_number("turn"), default=None, help="yaw per step [rad]")
+    p.add_argument("--body-height", type=finite_number("body height", positive=True), default=None,
                    help="hip height above the ground [m]")
     _add_step_options(p, cfg_defaults=False)
     p.set_defaults(func=cmd_walk)

@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, NoReturn
+from typing import Any
+
+from crawler_motion.cli_args import OneLineParser, finite_number, positive_int
 
 PROG = "crawler-motion console"
 
@@ -29,70 +30,42 @@ DONE_STATES: dict[str, tuple[str, ...]] = {
 }
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-def _number(name: str, positive: bool = False) -> Callable[[str], float]:
-    def convert(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not math.isfinite(value) or (positive and value <= 0):
-            raise argparse.ArgumentTypeError(
-                f"{name} must be a finite number{' > 0' if positive else ''}, got {text!r}")
-        return value
-    return convert
-
-
-def _steps(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"steps must be an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"steps must be >= 1, got {value}")
-    return value
-
-
 WALK_OPTIONS: tuple[tuple[str, Callable[[str], Any], str], ...] = (
-    ("stride", _number("stride"), "stride [m]"),
-    ("heading", _number("heading"), "direction of travel in the body frame [rad]"),
-    ("turn", _number("turn"), "yaw per step [rad]"),
-    ("lift", _number("lift"), "A->B rise [m]"),
-    ("arc", _number("arc"), "apex above B [m]"),
-    ("swing_time", _number("swing time"), "swing time [s]"),
-    ("stance_time", _number("stance time"), "stance time [s]"),
+    ("stride", finite_number("stride"), "stride [m]"),
+    ("heading", finite_number("heading"), "direction of travel in the body frame [rad]"),
+    ("turn", finite_number("turn"), "yaw per step [rad]"),
+    ("lift", finite_number("lift"), "A->B rise [m]"),
+    ("arc", finite_number("arc"), "apex above B [m]"),
+    ("swing_time", finite_number("swing time"), "swing time [s]"),
+    ("stance_time", finite_number("stance time"), "stance time [s]"),
 )
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Arguments of the console."""
-    parser = _Parser(prog=PROG, description=__doc__.splitlines()[0])
-    parser.add_argument("--timeout", type=_number("timeout", positive=True), default=60.0,
+    parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
+    parser.add_argument("--timeout", type=finite_number("timeout", positive=True), default=60.0,
                         help="give up after this long [s] (default 60)")
     parser.add_argument("--quiet", action="store_true", help="print only the outcome")
-    sub = parser.add_subparsers(dest="action", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="action", required=True, parser_class=OneLineParser)
     p = sub.add_parser("stand", help="stand up from the measured pose")
-    p.add_argument("--body-height", type=_number("body height", positive=True), default=None)
+    p.add_argument("--body-height", type=finite_number("body height", positive=True), default=None)
     for name in ("sit", "stop", "estop", "reset"):
         sub.add_parser(name, help=f"send {{\"command\": \"{name}\"}}")
     p = sub.add_parser("walk", help="walk N steps (absent: until stopped) and wait for it")
-    p.add_argument("--steps", type=_steps, default=None)
+    p.add_argument("--steps", type=positive_int, default=None)
     p.add_argument("--gait", default=None, help="diagonal | wave")
     p.add_argument("--profile", default=None, help="rest | smooth")
     for name, conv, text in WALK_OPTIONS:
         p.add_argument(f"--{name.replace('_', '-')}", type=conv, default=None, help=text)
     p = sub.add_parser("twist", help="publish cmd_vel for a while, then a zero twist")
-    p.add_argument("--vx", type=_number("vx"), default=0.0, help="forward speed [m/s]")
-    p.add_argument("--vy", type=_number("vy"), default=0.0, help="left speed [m/s]")
-    p.add_argument("--wz", type=_number("wz"), default=0.0, help="yaw rate [rad/s]")
-    p.add_argument("--duration", type=_number("duration", positive=True), default=3.0)
-    p.add_argument("--rate", type=_number("rate", positive=True), default=20.0)
+    p.add_argument("--vx", type=finite_number("vx"), default=0.0, help="forward speed [m/s]")
+    p.add_argument("--vy", type=finite_number("vy"), default=0.0, help="left speed [m/s]")
+    p.add_argument("--wz", type=finite_number("wz"), default=0.0, help="yaw rate [rad/s]")
+    p.add_argument("--duration", type=finite_number("duration", positive=True), default=3.0)
+    p.add_argument("--rate", type=finite_number("rate", positive=True), default=20.0)
     p = sub.add_parser("status", help="print status changes for a while")
-    p.add_argument("--duration", type=_number("duration", positive=True), default=5.0)
+    p.add_argument("--duration", type=finite_number("duration", positive=True), default=5.0)
     p = sub.add_parser("send", help="send one raw JSON gait command")
     p.add_argument("json", help="the JSON object, e.g. '{\"command\": \"stand\"}'")
     return parser

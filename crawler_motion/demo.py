@@ -8,7 +8,6 @@ summary: frames on the bus, largest tracking error, final foot error. Exit 0 on 
 
 from __future__ import annotations
 
-import argparse
 import os
 import random
 import signal
@@ -21,26 +20,13 @@ import time
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 
+from crawler_motion.cli_args import OneLineParser, positive_int
+
 PROG = "crawler-motion demo"
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
 
 
 def _free_udp_port() -> int:
@@ -83,8 +69,8 @@ class BusTap:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo; returns the exit status."""
-    parser = _Parser(prog=PROG, description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=_positive_int, default=3, help="gait cycles (default 3)")
+    parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=positive_int, default=3, help="gait cycles (default 3)")
     parser.add_argument("--gait", choices=("diagonal", "wave"), default="diagonal")
     parser.add_argument("--rate", type=float, default=100.0, help="planner rate [Hz]")
     parser.add_argument("--interface", default="udp_multicast")

@@ -161,11 +161,8 @@ class GaitSequencer:
     def stride_vectors(self, params: WalkParams | None = None) -> np.ndarray:
         """Per-leg stride vectors ``(n_legs, 2)`` [m]: foot travel during one stance."""
         p = self.params if params is None else params
-        n = len(self.cfg.gait.gaits[p.gait])
-        stance = float(p.stance_time)  # type: ignore[arg-type]
-        slot = (p.swing_time + stance) / n
-        b = slot / stance  # stride fraction per slot
-        phi = p.turn / (n * b)
+        _, b, _ = self._fractions(p)  # b: stride fraction per slot
+        phi = p.turn / (len(self.cfg.gait.gaits[p.gait]) * b)
         feet = self.robot.standing_feet(p.body_height)[:, :2]
         tangent = np.stack((-feet[:, 1], feet[:, 0]), axis=-1)
         heading = np.array([math.cos(p.heading), math.sin(p.heading)])

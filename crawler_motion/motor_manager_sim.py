@@ -23,7 +23,6 @@ a process (``motor_manager_sim --help``).
 
 from __future__ import annotations
 
-import argparse
 import logging
 import math
 import signal
@@ -33,12 +32,13 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from types import FrameType
-from typing import Any, NoReturn
+from typing import Any
 
 import can
 import numpy as np
 from can.interfaces.udp_multicast import UdpMulticastBus
 
+from crawler_motion.cli_args import OneLineParser
 from crawler_motion.errors import CrawlerMotionError, ProtocolError
 from crawler_motion.protocol import (
     AxisFlags,
@@ -461,17 +461,11 @@ class MotorManagerSim:
 # --------------------------------------------------------------------------------------------
 
 
-class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line, without the usage block."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-def _parser() -> _Parser:
+def _parser() -> OneLineParser:
     default_group = UdpMulticastBus.DEFAULT_GROUP_IPv4
-    parser = _Parser(prog=PROG, description="Simulated multi-axis motor manager of the crawler: "
-                     "speaks config/motor_manager.dbc on a CAN bus until SIGINT/SIGTERM.")
+    parser = OneLineParser(prog=PROG, description="Simulated multi-axis motor manager of the "
+                           "crawler: speaks config/motor_manager.dbc on a CAN bus until "
+                           "SIGINT/SIGTERM.")
     parser.add_argument("--interface", default="udp_multicast",
                         help="python-can interface (default: %(default)s; e.g. socketcan)")
     parser.add_argument("--channel", default=None,

@@ -84,11 +84,12 @@ def _check_duration(duration: float) -> float:
     return t
 
 
-def evaluate_polynomial(coeffs: np.ndarray, duration: float, tau: np.ndarray | float
-                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def evaluate_polynomial(coeffs: np.ndarray, duration: float | np.ndarray,
+                        tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Position, velocity and acceleration of a normalised-time polynomial at ``tau`` [s].
 
     ``coeffs`` is ``(..., degree + 1)``; the result has shape ``tau.shape + coeffs.shape[:-1]``.
+    ``duration`` may be an array broadcasting against ``tau[..., None]`` (one per sample).
     """
     c = np.asarray(coeffs, dtype=float)
     u = np.asarray(tau, dtype=float)[..., None] / duration if c.ndim > 1 else (
@@ -173,18 +174,9 @@ class Piecewise:
         """
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         idx = self.index(tt)
-        tau = np.clip(tt - self.breaks[idx], 0.0, self.durations[idx])
-        u = (tau / self.durations[idx])[:, None]
-        c = self.coeffs[idx]  # (n, dims, deg + 1)
-        pos = np.zeros(c.shape[:2])
-        vel = np.zeros_like(pos)
-        acc = np.zeros_like(pos)
-        for i in range(c.shape[-1] - 1, -1, -1):
-            acc = acc * u + 2 * vel
-            vel = vel * u + pos
-            pos = pos * u + c[:, :, i]
-        d = self.durations[idx][:, None]
-        return pos, vel / d, acc / (d * d)
+        duration = self.durations[idx]
+        tau = np.clip(tt - self.breaks[idx], 0.0, duration)
+        return evaluate_polynomial(self.coeffs[idx], duration[:, None], tau)
 
     def phase_at(self, t: np.ndarray | float) -> list[str]:
         """Phase label of the segment active at each time."""
