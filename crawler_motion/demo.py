@@ -27,6 +27,10 @@ import numpy as np
 from crawler_motion.cli_args import OneLineParser, positive_int
 
 PROG = "crawler-motion demo"
+#: Driver watchdog of the demo [s]. The driver's default (0.2 s) is meant for a dedicated
+#: controller; on a shared laptop or CI machine a starved planner process can miss it, and a
+#: tripped watchdog (correctly) needs an explicit re-enable, which would end the demo.
+DEMO_COMMAND_TIMEOUT = 1.0
 
 
 def _free_udp_port() -> int:
@@ -106,7 +110,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "motor_manager_sim": [py, "-m", "crawler_motion.motor_manager_sim", *bus_args,
                               "--speed-limit", str(float(cfg.robot.velocity.max()))],
         "driver_node": [py, "-m", "crawler_motion.driver_node", "--ros-args",
-                        "-p", "autostart:=true", *ros_bus],
+                        "-p", "autostart:=true", "-p", f"command_timeout:={DEMO_COMMAND_TIMEOUT}",
+                        *ros_bus],
         "planner_node": [py, "-m", "crawler_motion.planner_node", "--ros-args",
                          "-p", f"rate:={float(args.rate)}", "-p", f"gait:={args.gait}"],
     }

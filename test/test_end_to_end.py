@@ -25,6 +25,7 @@ from sensor_msgs.msg import JointState  # noqa: E402
 
 from crawler_motion.config import load_config  # noqa: E402
 from crawler_motion.console import Console  # noqa: E402
+from crawler_motion.demo import DEMO_COMMAND_TIMEOUT  # noqa: E402
 from crawler_motion.errors import ProtocolError  # noqa: E402
 from crawler_motion.kinematics import forward_kinematics  # noqa: E402
 from crawler_motion.protocol import MotorProtocol, TargetFrame  # noqa: E402
@@ -90,6 +91,7 @@ def stack() -> Iterator[dict[str, Any]]:
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
         "driver": subprocess.Popen([*_exe("driver_node"), "--ros-args", "-p",
                                     "autostart:=true", "-p", f"can_channel:={group}", "-p",
+                                    f"command_timeout:={DEMO_COMMAND_TIMEOUT}", "-p",
                                     f"can_port:={port}"], env=env, stdout=subprocess.DEVNULL,
                                    stderr=subprocess.DEVNULL),
         "planner": subprocess.Popen([*_exe("planner_node"), "--ros-args",
