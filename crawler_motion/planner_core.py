@@ -164,6 +164,23 @@ class _Track:
         return self._out
 
 
+
+@dataclass(frozen=True)
+class _Ahead:
+    """The next slot planned ahead of its boundary, with the inputs it was planned from."""
+
+    after: Slot | None
+    pending: WalkParams | None
+    stopping: bool
+    slot: Slot | None
+    seq: GaitSequencer | None
+    error: str | None
+    track: _Track | None
+
+    def matches(self, after: Slot | None, pending: WalkParams | None, stopping: bool) -> bool:
+        """True if planned after slot ``after`` with these parameters and stop flag."""
+        return self.after is after and self.pending is pending and self.stopping == stopping
+
 def sitting_pose(cfg: Config) -> np.ndarray:
     """Sitting joint angles ``(n_legs, 3)`` [rad]: body at the minimum height, legs tucked.
 
@@ -264,6 +281,7 @@ class PlannerCore:
         self._last_event: str | None = None
         self._events: list[tuple[str, str]] = []
         self._upfront: dict[tuple[WalkParams, int], str | None] = {}
+        self._ahead: _Ahead | None = None
 
     # ---------------------------------------------------------------- settings
     def set_rate(self, rate_hz: float) -> None:
@@ -422,6 +440,25 @@ class PlannerCore:
             return self._tick_move(now)
         return None
 
+    def plan_ahead(self) -> bool:
+        """Plan and check the next slot now, ahead of its boundary; True if it planned.
+
+        Call it between ticks (the node's ticker does, right after each tick): the tick at
+        the boundary then only switches slots, and the ~2 ms of solving and checking stay off
+        the tick. The plan is used only if its inputs (current slot, new walk parameters,
+        stop request) are unchanged at the boundary; otherwise the tick plans as before.
+        """
+        if (self.state not in (WALKING, STOPPING) or self._waiting or self._seq is None
+                or self._slot is None or self._seq.standing):
+            return False
+        stopping, pending = self._next_inputs()
+        if self._ahead is not None and self._ahead.matches(self._slot, pending, stopping):
+            return False
+        slot, seq, error = self._try_slot(pending, stopping)
+        track = _Track(slot.legs) if slot is not None and error is None else None
+        self._ahead = _Ahead(self._slot, pending, stopping, slot, seq, error, track)
+        return True
+
     def status(self) -> dict[str, Any]:
         """State, gait, profile, step k of N (k full gait cycles done), pause, last refusal."""
         params = self._params if self._params is not None else self.defaults
@@ -497,6 +534,7 @@ class PlannerCore:
         self._pending_steps = None
         self._stop_requested = False
         self._waiting = False
+        self._ahead = None
 
     def _hold_pose(self, positions: np.ndarray) -> JointTarget:
         pos = np.array(positions, dtype=float).reshape(self.n_joints)
@@ -643,11 +681,13 @@ class PlannerCore:
                             f"{params.turn:g} rad/step, "
                             f"{steps if steps is not None else 'until stopped'} steps")
 
-    def _commit(self, slot: Slot, seq: GaitSequencer, t0: float) -> None:
+    def _commit(self, slot: Slot, seq: GaitSequencer, t0: float,
+                track: _Track | None = None) -> None:
         self._seq = seq
         self._slot = slot
         self._slot_t0 = t0
-        self._track = _Track(slot.legs)
+        self._track = track if track is not None else _Track(slot.legs)
+        self._ahead = None
         self._params = slot.params
         if slot.kind == "steady":
             self._steady_planned += 1
@@ -694,19 +734,21 @@ class PlannerCore:
     def _plan_slot(self, t0: float) -> bool:
         """Plan, check and start the next slot at ``t0``; False if none started."""
         assert self._seq is not None
-        n = self._seq.n_groups
         if self._pending_steps is not None:
             self._steps_total = self._pending_steps[0]
             self._steady_planned = 0
             self._steady_done = 0
             self._pending_steps = None
-        stopping = self._stop_requested or (
-            self._steps_total is not None and self._seq.phase == "steady"
-            and self._steady_planned >= self._steps_total * n)
-        pending = None if stopping else self._pending
+        stopping, pending = self._next_inputs()
         self._pending = None
-        slot, seq, error = self._try_slot(pending, stopping)
+        ahead, self._ahead = self._ahead, None
+        track = None
+        if ahead is not None and ahead.matches(self._slot, pending, stopping):
+            slot, seq, error, track = ahead.slot, ahead.seq, ahead.error, ahead.track
+        else:
+            slot, seq, error = self._try_slot(pending, stopping)
         if error is not None:
+            track = None
             self._event("error", f"slot check failed: {error}; stopping into standing")
             slot, seq, error = self._try_slot(None, True)
             if error is not None:
@@ -719,8 +761,20 @@ class PlannerCore:
             return False
         if stopping and self.state == WALKING:
             self.state = STOPPING
-        self._commit(slot, seq, t0)
+        self._commit(slot, seq, t0, track)
         return True
+
+    def _next_inputs(self) -> tuple[bool, WalkParams | None]:
+        """(stopping, new parameters) of the next slot as things stand (mutates nothing)."""
+        assert self._seq is not None
+        if self._pending_steps is not None:
+            steps_total, steady_planned = self._pending_steps[0], 0
+        else:
+            steps_total, steady_planned = self._steps_total, self._steady_planned
+        stopping = self._stop_requested or (
+            steps_total is not None and self._seq.phase == "steady"
+            and steady_planned >= steps_total * self._seq.n_groups)
+        return stopping, (None if stopping else self._pending)
 
     def _slot_end_pose(self) -> np.ndarray:
         assert self._track is not None

@@ -6,21 +6,28 @@ Subscribes ``cmd_vel`` (geometry_msgs/Twist; linear.x, linear.y, angular.z used)
 (diagnostic_msgs/DiagnosticArray: a status whose hardware_id is ``fault_hardware_id`` at level
 ERROR pauses the planner until every such status is OK or WARN again; STALE changes nothing).
 Publishes ``joint_commands`` (sensor_msgs/JointState: 12 joints, position + velocity, stamped)
-at ``rate`` Hz from a steady-clock timer (nothing in IDLE and ESTOP), and ``planner_status``
-(std_msgs/String JSON, transient local) on every change and at least once a second.
+at ``rate`` Hz (nothing in IDLE and ESTOP), and ``planner_status`` (std_msgs/String JSON,
+transient local) on every change and at least once a second.
+
+Joint commands are published from a `ticker.Ticker` thread on the steady clock, not from an
+rclpy timer: the executor also runs every callback, and a busy executor delays or skips timer
+ticks. Right after each tick the same thread plans the next gait slot ahead of its boundary
+(`PlannerCore.plan_ahead`), so no tick waits for planning. Ticks skipped because the process
+was starved are counted (``missed_ticks`` in the status; a message is logged).
+
 
 Parameters are validated by `commands.validate_parameters`, at start-up and on every change
 (refused with the reason). ``config_file`` is read-only; a new ``rate`` changes the period of
 the running timer; new gait defaults apply to the next walk or stand, not to a walk in progress.
 All callbacks share the node's default (mutually exclusive) callback group and a lock around
 the core, so the node is also safe under a MultiThreadedExecutor and with `set_parameters`
-called from another thread. Spin it single-threaded (as `main` does): rclpy's
-MultiThreadedExecutor gains nothing here and was seen to starve the 100 Hz timer under load.
+called from another thread. Spin it single-threaded (as `main` does).
 """
 
 from __future__ import annotations
 
 import json
+import sys
 import threading
 import time
 from typing import Any
@@ -53,7 +60,10 @@ from crawler_motion.commands import (
 from crawler_motion.config import config_path, load_config
 from crawler_motion.errors import CommandError, CrawlerMotionError
 from crawler_motion.planner_core import PlannerCore
+from crawler_motion.ticker import Ticker
 
+#: Python thread switch interval of the planner process [s] (the default is 5 ms).
+GIL_SWITCH_INTERVAL = 0.0005
 #: Period of the unconditional status publication [s].
 STATUS_PERIOD = 1.0
 #: Identical warnings are logged at most once per this many seconds.
@@ -129,7 +139,9 @@ class PlannerNode(Node):
                                  qos_profile_sensor_data)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._timer = self.create_timer(1.0 / settings.rate, self._on_timer, clock=steady)
+        self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._plan_ahead,
+                              name="planner-ticker")
+        self._missed_logged = 0
         self._status_timer = self.create_timer(STATUS_PERIOD, self._publish_status,
                                                clock=steady)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -138,6 +150,12 @@ class PlannerNode(Node):
             f"planner ready: {self.cfg.source}, {settings.rate:g} Hz, gait "
             f"{settings.defaults.gait}/{settings.defaults.profile}; IDLE until 'stand'")
         self._publish_status()
+        self._ticker.start()
+
+    def destroy_node(self) -> None:
+        """Stop the ticker thread, then destroy the node."""
+        self._ticker.stop(timeout=2.0)
+        super().destroy_node()
 
     # ----------------------------------------------------------------- parameters
     def _parameter_values(self, changes: list[Parameter] | None = None) -> dict[str, Any]:
@@ -168,7 +186,7 @@ class PlannerNode(Node):
             self.core.set_cmd_vel_timeout(settings.cmd_vel_timeout)
             self.core.set_rate(settings.rate)
             if settings.rate != self._settings.rate:
-                self._timer.timer_period_ns = round(1e9 / settings.rate)
+                self._ticker.period = 1.0 / settings.rate
             if settings.fault_hardware_id != self._settings.fault_hardware_id:
                 self._diag_levels.clear()
                 self.core.set_paused(False, time.monotonic())
@@ -224,16 +242,35 @@ class PlannerNode(Node):
         self._after_core_call()
 
     # ----------------------------------------------------------------- outputs
-    def _on_timer(self) -> None:
-        with self._lock:
-            target = self.core.tick(time.monotonic())
-        if target is not None:
-            msg = self._msg
-            msg.header.stamp = self.get_clock().now().to_msg()
-            msg.position = target.positions.tolist()
-            msg.velocity = target.velocities.tolist()
-            self._pub_joints.publish(msg)
-        self._after_core_call()
+    def _on_tick(self, now: float) -> None:
+        """Ticker thread: one tick of the core, published; errors are logged, never raised."""
+        try:
+            with self._lock:
+                target = self.core.tick(now)
+            if target is not None:
+                msg = self._msg
+                msg.header.stamp = self.get_clock().now().to_msg()
+                msg.position = target.positions.tolist()
+                msg.velocity = target.velocities.tolist()
+                self._pub_joints.publish(msg)
+            self._after_core_call()
+            missed = self._ticker.missed
+            if missed != self._missed_logged:
+                self._missed_logged = missed
+                self._log("warn", "ticks skipped: the planner process was starved (see "
+                                  "missed_ticks in planner_status)")
+        except Exception as exc:  # the ticker must outlive one bad tick
+            if self.context.ok():
+                self._log("error", f"tick failed: {type(exc).__name__}: {exc}")
+
+    def _plan_ahead(self, now: float) -> None:
+        """Ticker thread, right after a tick: plan the next slot before its boundary."""
+        try:
+            with self._lock:
+                self.core.plan_ahead()
+        except Exception as exc:  # the tick plans it again if needed
+            if self.context.ok():
+                self._log("error", f"planning ahead failed: {type(exc).__name__}: {exc}")
 
     def _after_core_call(self) -> None:
         with self._lock:
@@ -248,6 +285,7 @@ class PlannerNode(Node):
         with self._lock:
             status = self.core.status()
             self._status_revision = status["revision"]
+        status["missed_ticks"] = self._ticker.missed
         status["time"] = self.get_clock().now().nanoseconds * 1e-9
         self._pub_status.publish(String(data=json.dumps(status)))
 
@@ -272,6 +310,8 @@ class PlannerNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Console script ``planner_node``: spin the planner until Ctrl-C or shutdown."""
+    # the ticker thread waits for the GIL at most this long when another thread holds it
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     rclpy.init(args=args)
     node = None
     try:

@@ -595,3 +595,79 @@ def test_an_infeasible_twist_held_still_is_checked_once(monkeypatch):
         clock.tick()
     assert len(calls) == 1 and clock.core.state == STANDING
     assert clock.core.status()["refusals"] == 5
+
+
+# ------------------------------------------------------------------ planning ahead
+AHEAD_SCRIPTS = [  # (time after the walk starts [s], command); then run to STANDING
+    ("steps", [(0.0, '{"command": "walk", "steps": 2}')]),
+    ("change-mid-slot", [(0.0, '{"command": "walk"}'),
+                         (0.95, '{"command": "walk", "stride": 0.03, "turn": 0.2}'),
+                         (2.05, '{"command": "stop"}')]),
+    ("stop-just-before-a-boundary", [(0.0, '{"command": "walk"}'), (1.19, '{"command": "stop"}')]),
+    ("new-budget", [(0.0, '{"command": "walk", "steps": 3}'),
+                    (0.65, '{"command": "walk", "steps": 1, "profile": "rest"}')]),
+]
+
+
+def _run_script(script: list[tuple[float, str]], ahead: bool) -> tuple[Clock, int]:
+    clock = standing()
+    t0 = clock.t
+    todo = list(script)
+    planned = 0
+    while True:
+        while todo and clock.t - t0 >= todo[0][0] - 1e-9:
+            clock.send(todo.pop(0)[1])
+        clock.tick()
+        if ahead:
+            planned += clock.core.plan_ahead()
+        if clock.core.state == STANDING and not todo:
+            return clock, planned
+        assert clock.t - t0 < 30.0
+
+
+@pytest.mark.parametrize("script", [s for _, s in AHEAD_SCRIPTS],
+                         ids=[name for name, _ in AHEAD_SCRIPTS])
+def test_planning_ahead_changes_no_target(script, monkeypatch):
+    """Planned between ticks or at the boundary: the same targets, bit for bit, and with
+    `plan_ahead` after every tick no tick ever plans a slot itself."""
+    plain, _ = _run_script(script, ahead=False)
+    in_tick = []
+    real_try_slot = PlannerCore._try_slot
+    planning_ahead = [False]
+
+    def counting(self, params, stopping):
+        if not planning_ahead[0]:
+            in_tick.append(self._now)
+        return real_try_slot(self, params, stopping)
+
+    real_plan_ahead = PlannerCore.plan_ahead
+
+    def marked(self):
+        planning_ahead[0] = True
+        try:
+            return real_plan_ahead(self)
+        finally:
+            planning_ahead[0] = False
+
+    monkeypatch.setattr(PlannerCore, "_try_slot", counting)
+    monkeypatch.setattr(PlannerCore, "plan_ahead", marked)
+    early, planned = _run_script(script, ahead=True)
+    assert len(plain.targets) == len(early.targets)
+    for (ta, a), (tb, b) in zip(plain.targets, early.targets, strict=True):
+        assert ta == tb
+        np.testing.assert_array_equal(a.positions, b.positions)
+        np.testing.assert_array_equal(a.velocities, b.velocities)
+    assert [s for _, s in plain.states] == [s for _, s in early.states]
+    assert planned >= 3
+    assert in_tick == []  # every slot was planned ahead (changes were replanned ahead too)
+
+
+def test_plan_ahead_does_nothing_when_there_is_nothing_to_plan():
+    clock = standing()
+    assert clock.core.plan_ahead() is False  # standing
+    clock.send('{"command": "walk", "steps": 1}')
+    clock.tick()
+    assert clock.core.plan_ahead() is True
+    assert clock.core.plan_ahead() is False  # already planned, inputs unchanged
+    clock.send('{"command": "stop"}')
+    assert clock.core.plan_ahead() is True  # the stop changed the next slot

@@ -169,6 +169,7 @@ def test_idle_then_stand_publishes_joint_commands_at_the_rate(ros):
     probe = ros.probe
     status = probe.wait_state("IDLE", 0)
     assert status["paused"] is False and status["gait"] == "diagonal" and "time" in status
+    assert status["missed_ticks"] == 0
     time.sleep(0.3)
     assert probe.commands_between(0, time.monotonic()) == []  # IDLE publishes nothing
     mark = probe.mark()

@@ -1,0 +1,128 @@
+"""A fixed-rate tick loop in its own thread, on the steady clock (no ROS imports).
+
+The planner publishes its joint commands from a `Ticker` rather than from an rclpy timer: an
+rclpy timer fires from the executor, which also runs every subscription callback and (in Python)
+rebuilds its wait set on every spin, so a busy executor delays or skips ticks. The ticker sleeps
+until absolute deadlines ``t0 + k * period`` on ``time.monotonic`` and never drifts:
+
+- a tick that starts late, but less than one period late, runs at once and the next deadline
+  stays on the grid (the average rate is kept);
+- a tick one or more whole periods late skips the missed deadlines (they are counted in
+  ``missed``, never run in a burst: a late joint command is worse than none).
+
+``idle`` (optional) runs right after a tick, in the same thread: work that must not delay a
+tick (planning the next gait slot ahead of its boundary) goes there.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable
+
+#: Largest allowed tick rate [Hz] (a sanity bound, not a performance claim).
+MAX_RATE_HZ = 10_000.0
+
+
+def catch_up(deadline: float, now: float, period: float) -> tuple[float, int, float]:
+    """Where a tick that starts at ``now`` stands on the grid ``deadline + k * period`` [s].
+
+    Returns ``(deadline, skipped, late)``: the deadline this tick serves (the latest one not
+    after ``now``, or ``deadline`` itself when ``now`` is early or less than a period late),
+    the whole deadlines skipped before it, and how late the tick starts after it [s] (>= 0).
+    """
+    late = now - deadline
+    if late < period:
+        return deadline, 0, max(late, 0.0)
+    skipped = int(late // period)
+    deadline += skipped * period
+    return deadline, skipped, now - deadline
+
+
+class Ticker:
+    """Calls ``tick(now)`` every ``period`` seconds of steady time in a daemon thread.
+
+    ``tick`` and ``idle`` must handle their own errors: an exception escaping them stops the
+    ticker and is kept in ``error`` (the owner decides what a dead ticker means).
+    """
+
+    def __init__(self, period: float, tick: Callable[[float], None],
+                 idle: Callable[[float], None] | None = None, name: str = "ticker") -> None:
+        self._period = self._checked(period)
+        self._tick = tick
+        self._idle = idle
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        #: Ticks run so far.
+        self.ticks = 0
+        #: Deadlines skipped because a tick started one or more whole periods late.
+        self.missed = 0
+        #: Largest start delay of a tick after its deadline [s].
+        self.worst_delay = 0.0
+        #: The exception that stopped the ticker, if any.
+        self.error: BaseException | None = None
+
+    @staticmethod
+    def _checked(period: float) -> float:
+        period = float(period)
+        if not math.isfinite(period) or period < 1.0 / MAX_RATE_HZ:
+            raise ValueError(f"tick period must be a finite number >= {1.0 / MAX_RATE_HZ:g} s, "
+                             f"got {period!r}")
+        return period
+
+    @property
+    def period(self) -> float:
+        """Tick period [s]."""
+        return self._period
+
+    @period.setter
+    def period(self, value: float) -> None:
+        """A new period applies from the next deadline (the grid restarts there)."""
+        value = self._checked(value)
+        with self._lock:
+            self._period = value
+
+    def start(self) -> None:
+        """Start ticking; the first tick is one period from now."""
+        self._thread.start()
+
+    def stop(self, timeout: float = 1.0) -> bool:
+        """Stop and join the thread; True if it ended within ``timeout`` [s]."""
+        self._stop.set()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join(timeout)
+        return not self._thread.is_alive()
+
+    @property
+    def running(self) -> bool:
+        """True while the thread runs."""
+        return self._thread.is_alive()
+
+    def _run(self) -> None:
+        with self._lock:
+            period = self._period
+        deadline = time.monotonic() + period
+        try:
+            while True:
+                delay = deadline - time.monotonic()
+                if delay > 0.0 and self._stop.wait(delay):
+                    return
+                if self._stop.is_set():
+                    return
+                now = time.monotonic()
+                deadline, skipped, late = catch_up(deadline, now, period)
+                self.missed += skipped
+                self.worst_delay = max(self.worst_delay, late)
+                self._tick(now)
+                self.ticks += 1
+                if self._idle is not None:
+                    self._idle(time.monotonic())
+                with self._lock:
+                    if self._period != period:  # restart the grid at the new period
+                        period = self._period
+                        deadline = now
+                deadline += period
+        except BaseException as exc:  # kept for the owner; the thread ends
+            self.error = exc
