@@ -50,6 +50,12 @@ GOAL = STAND + np.array([0.1, -0.1, 0.15] * 4)
 TOL = 2e-3  # [rad] measured vs commanded (resolution 1e-4; the manager is still settling)
 ROOT = Path(__file__).resolve().parent.parent
 
+#: Real-time waits poll this many times longer than the nominal time: a loaded CI machine can
+#: starve a process for a while. The timings themselves are measured (and reported) by the
+#: fault-injection tests and the benchmarks, and asserted on fake clocks in the unit tests.
+WAIT_SLACK = 3.0
+
+
 
 @pytest.fixture(scope="module")
 def proto():
@@ -57,7 +63,8 @@ def proto():
 
 
 def wait_until(predicate: Callable[[], object], timeout: float, period: float = 0.01) -> bool:
-    deadline = time.monotonic() + timeout
+    """Poll ``predicate`` for up to WAIT_SLACK x ``timeout`` [s] of real time."""
+    deadline = time.monotonic() + WAIT_SLACK * timeout
     while time.monotonic() < deadline:
         if predicate():
             return True
