@@ -33,7 +33,8 @@ PROG = "crawler-motion demo"
 DEMO_COMMAND_TIMEOUT = 1.0
 
 
-def _free_udp_port() -> int:
+def free_udp_port() -> int:
+    """A UDP port free right now (one per cross-process bus: sockets bind the port)."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("", 0))
         return int(s.getsockname()[1])
@@ -98,7 +99,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     protocol = MotorProtocol.from_config(cfg.robot)
     udp = args.interface == "udp_multicast"
     channel = args.channel or (UdpMulticastBus.DEFAULT_GROUP_IPv4 if udp else "vcan0")
-    port = _free_udp_port() if udp else 0
+    port = free_udp_port() if udp else 0
     logs = Path(tempfile.mkdtemp(prefix="crawler-demo-"))
     py = sys.executable
     bus_args = ["--interface", args.interface, "--channel", channel]

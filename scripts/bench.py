@@ -17,8 +17,9 @@ Rows:
   + `joint_velocities` for 4 feet / 12 joints at one instant;
 - the same tick through `crawler_motion.fastpath` (`LegEvaluator` + `FastKinematics`), and its
   parts;
-- `PlannerCore.tick` while walking at 100 Hz, if `crawler_motion/planner_core.py` provides it
-  (its p99 includes the slot boundaries, where the tick plans and checks the next slot);
+- `PlannerCore.tick` while walking at 100 Hz as the node runs it (the next slot planned by
+  `PlannerCore.plan_ahead` between ticks), the same without planning ahead (its p99 is the
+  slot boundaries, where the tick plans and checks the next slot), and `plan_ahead` itself;
 - CAN bus load at 1 Mbit/s: command (target frames) at 100, 200 and 500 Hz and feedback
   (positions, status, heartbeat) at the simulated manager's default rates, with worst-case
   bit stuffing (`protocol.frame_bits_worst_case`).
@@ -30,7 +31,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import importlib.util
 import math
 import statistics
 import sys
@@ -73,10 +73,13 @@ class Row:
 
 
 def measure(name: str, func: Callable[[], object], calls: int, warmup: int = 200,
-            note: str = "") -> Row:
-    """Time ``func`` ``calls`` times (after ``warmup`` calls) with the GC disabled."""
+            note: str = "", between: Callable[[], object] | None = None) -> Row:
+    """Time ``func`` ``calls`` times (after ``warmup`` calls) with the GC disabled;
+    ``between`` (untimed) runs after every call."""
     for _ in range(warmup):
         func()
+        if between is not None:
+            between()
     samples = [0] * calls
     clock = time.perf_counter_ns
     was_enabled = gc.isenabled()
@@ -87,6 +90,8 @@ def measure(name: str, func: Callable[[], object], calls: int, warmup: int = 200
             start = clock()
             func()
             samples[i] = clock() - start
+            if between is not None:
+                between()
     finally:
         if was_enabled:
             gc.enable()
@@ -182,50 +187,60 @@ def timing_rows(cfg: Config, scale: float) -> list[Row]:
     return rows
 
 
-def planner_row(cfg: Config, scale: float) -> Row:
-    """`PlannerCore.tick` while walking at `PLANNER_RATE`, or a skipped row with the reason."""
-    name = f"planner tick (`PlannerCore.tick`, walking, {PLANNER_RATE:g} Hz)"
-    if importlib.util.find_spec("crawler_motion.planner_core") is None:
-        return Row(name, 0, None, None, "skipped: crawler_motion/planner_core.py not found")
-    try:
-        from crawler_motion.planner_core import PlannerCore
+def planner_rows(cfg: Config, scale: float) -> list[Row]:
+    """`PlannerCore.tick` while walking at `PLANNER_RATE`, as the node runs it (the next slot
+    planned by `PlannerCore.plan_ahead` right after a tick, outside the timed call), then the
+    same without planning ahead (the tick plans at the boundary), and `plan_ahead` itself."""
+    from crawler_motion.planner_core import PlannerCore
 
-        if not callable(getattr(PlannerCore, "tick", None)):
-            return Row(name, 0, None, None, "skipped: PlannerCore has no tick(now)")
+    params = validate_params(WalkParams.defaults(cfg.gait), cfg)
+    n_groups = len(cfg.gait.gaits[params.gait])
+    slot_time = (params.swing_time + float(params.stance_time)) / n_groups  # type: ignore[arg-type]
+    calls = max(200, int(6000 * scale))
+    rows = []
+    for ahead in (True, False):
         core = PlannerCore(cfg, PLANNER_RATE)
         pose = standing_pose(cfg)
         now = 0.0
         core.set_measured(pose, now)
         core.submit('{"command": "stand"}', now)
-        for _ in range(100_000):
-            if core.state == "STANDING":
-                break
+        while core.state != "STANDING":
             now += 1.0 / PLANNER_RATE
             core.set_measured(pose, now)
             core.tick(now)
         core.submit('{"command": "walk"}', now)  # until stopped
-        if core.state != "WALKING":
-            return Row(name, 0, None, None, f"skipped: planner did not walk ({core.state})")
         clock = [now]
+        planning: list[int] = []
 
-        def tick() -> None:
+        def tick(core: PlannerCore = core, clock: list[float] = clock) -> None:
             clock[0] += 1.0 / PLANNER_RATE
             core.tick(clock[0])
 
-        calls = max(200, int(6000 * scale))
-        row = measure(name, tick, calls, warmup=100)
-        state = core.state
-    except Exception as exc:  # the planner is being written in parallel: report, go on
-        return Row(name, 0, None, None, f"skipped: {type(exc).__name__}: {exc}")
-    params = validate_params(WalkParams.defaults(cfg.gait), cfg)
-    n_groups = len(cfg.gait.gaits[params.gait])
-    slot_time = (params.swing_time + float(params.stance_time)) / n_groups  # type: ignore[arg-type]
-    slots = row.calls / (PLANNER_RATE * slot_time)
-    note = (f"{slots:.0f} slot boundaries in the run (1 tick in {PLANNER_RATE * slot_time:.0f}"
-            f"), where the tick plans and checks the next slot: see p99")
-    if state != "WALKING":
-        note += f"; ended in {state}"
-    return Row(row.name, row.calls, row.median, row.p99, note)
+        def plan(core: PlannerCore = core, planning: list[int] = planning) -> None:
+            t0 = time.perf_counter_ns()
+            if core.plan_ahead():
+                planning.append(time.perf_counter_ns() - t0)
+
+        slots = calls / (PLANNER_RATE * slot_time)
+        if ahead:
+            name = (f"planner tick (`PlannerCore.tick`, walking, {PLANNER_RATE:g} Hz, next "
+                    f"slot planned ahead between ticks, as the node does)")
+            note = f"{slots:.0f} slot boundaries in the run, all switched without planning"
+        else:
+            name = "planner tick without `plan_ahead` (the boundary tick plans the slot)"
+            note = (f"{slots:.0f} slot boundaries in the run (1 tick in "
+                    f"{PLANNER_RATE * slot_time:.0f}): they make the p99")
+        row = measure(name, tick, calls, warmup=100, between=plan if ahead else None)
+        if core.state != "WALKING":
+            note += f"; ended in {core.state}"
+        rows.append(Row(row.name, row.calls, row.median, row.p99, note))
+        if ahead and planning:
+            us = sorted(x / 1e3 for x in planning)
+            rows.append(Row("`PlannerCore.plan_ahead` (plan + check the next slot + its "
+                            "evaluator), once per slot", len(us), statistics.median(us),
+                            us[min(len(us) - 1, round(0.99 * (len(us) - 1)))],
+                            "runs in the ticker thread right after a tick"))
+    return rows
 
 
 def bus_rows(cfg: Config) -> list[tuple[str, float, float, int, float]]:
@@ -300,20 +315,15 @@ def print_targets(rows: list[Row]) -> None:
             print(f"- {r.name}: {r.median:.1f} us -> {verdict}")
 
 
-# ===========================================================================================
-# PLACEHOLDER: end-to-end bench over the cross-process bus (--e2e). NOT IMPLEMENTED YET.
-#
-# To be filled in: start motor_manager_sim and the driver as separate processes on the
-# cross-process virtual CAN bus, drive the planner at the command rate, and measure the
-# latency from a planner tick to the matching target frame on the bus and to the simulated
-# manager's position feedback (median / p99), plus frames lost or late. Print it as one more
-# table in the format of `print_timing`.
-# ===========================================================================================
 def bench_e2e(args: argparse.Namespace) -> int:
-    """End-to-end bench over the cross-process bus: placeholder, not implemented yet."""
-    print("bench --e2e: the end-to-end bench over the cross-process bus is not implemented "
-          "yet (placeholder in scripts/bench.py)", file=sys.stderr)
-    return 2
+    """End-to-end bench over the cross-process bus (``scripts/bench_e2e.py``): planner ->
+    driver -> CAN at 100, 200 and 500 Hz, 15 s of walking per rate (5 s with ``--quick``)."""
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_e2e as e2e
+
+    return e2e.main(["--seconds", "5" if args.quick else "15"])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -323,7 +333,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="10x fewer calls per row (a smoke run; figures are noisier)")
     parser.add_argument("--config", default=None, help="robot.yaml (default: the shipped one)")
     parser.add_argument("--e2e", action="store_true",
-                        help="end-to-end bench over the cross-process bus (placeholder)")
+                        help="end-to-end bench over the cross-process bus instead "
+                             "(scripts/bench_e2e.py)")
     args = parser.parse_args(argv)
     if args.e2e:
         return bench_e2e(args)
@@ -332,7 +343,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"# crawler_motion bench (Python {sys.version.split()[0]}, numpy {np.__version__})\n")
     overhead = timer_overhead()
     rows = timing_rows(cfg, scale)
-    rows.append(planner_row(cfg, scale))
+    rows.extend(planner_rows(cfg, scale))
     print_timing(rows, overhead)
     print_targets(rows)
     print_bus(bus_rows(cfg))
