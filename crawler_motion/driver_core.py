@@ -372,6 +372,7 @@ class DriverCore:
         n = self.protocol.n_axes
         self._positions = np.full(n, np.nan)
         self._fresh: set[int] = set()
+        self._last_counter: dict[tuple[type, int], int] = {}  # (frame type, group) -> counter
         self._position_time: float | None = None
         self._flags: dict[int, AxisFlags] = {}
         self._flags_time: dict[int, float] = {}
@@ -873,6 +874,14 @@ class DriverCore:
             self._n["rx_dropped"] += 1
             self.last_rx_error = str(exc)
             return None
+        if isinstance(frame, (PositionFeedback, AxisStatus)):
+            key = (type(frame), frame.group)
+            if self._last_counter.get(key) == frame.counter:  # stuck sender or replay: stale
+                self._n["rx_dropped"] += 1
+                self.last_rx_error = (f"{type(frame).__name__} group {frame.group}: counter "
+                                      f"{frame.counter} repeated (stale frame)")
+                return None
+            self._last_counter[key] = frame.counter
         if isinstance(frame, PositionFeedback):
             for joint, value in frame.positions.items():
                 self._positions[self._index[joint]] = value
@@ -970,6 +979,10 @@ class DriverCore:
                   for a, f in sorted(self._flags.items()) if f.fault]
         if faults:
             errors.append(f"fault bits on {', '.join(faults)}")
+        stalled = [self.protocol.axis_map[self._index_of_axis(a)].joint
+                   for a, f in sorted(self._flags.items()) if f.stalled and not f.fault]
+        if stalled:
+            errors.append(f"stalled (not following the target): {', '.join(stalled)}")
         if self._estop:
             errors.append(f"ESTOP latched ({self._estop_reason}): ~/reset then ~/enable")
         if self._tripped:
@@ -978,7 +991,7 @@ class DriverCore:
         if self._opened and not self._active:
             warnings.append("inactive: joint_commands are dropped")
         elif self._active and not self._enabled and not self._estop:
-            warnings.append("motors not enabled: call ~/enable")
+            errors.append("motors not enabled: call ~/enable")  # motion blocked: gait pauses
         level = ERROR if errors else WARN if warnings else OK
         message = "; ".join(errors + warnings) or "enabled, forwarding joint_commands"
         hb_age = _age(now, self._heartbeat_time)
@@ -1050,7 +1063,7 @@ class DriverCore:
                 elif seen is not None and now - seen > stale_after:
                     level, message = STALE, f"no status for {now - seen:.3f} s"
                 elif flags.stalled:
-                    level, message = WARN, "stalled"
+                    level, message = ERROR, "stalled: not following the target"
                 elif flags.command_timeout:
                     level, message = WARN, "manager command timeout: holding"
                 else:

@@ -69,6 +69,8 @@ NODE_NAME = "driver"
 HARDWARE_ID = "motor_manager"
 N_JOINTS = 12
 COMMAND_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+#: Period of the check for changed diagnostic levels, published at once when one changed [s].
+LEVEL_WATCH_PERIOD = 0.05
 
 
 def _descriptor(name: str) -> ParameterDescriptor:
@@ -123,6 +125,10 @@ class DriverNode(LifecycleNode):
         self.create_service(Trigger, "~/reset", self._on_reset)
         self._diagnostics_timer = self.create_timer(
             self._value("diagnostics_period"), self._publish_diagnostics, clock=self._steady)
+        # a change of any level is published at once, not at the next period: the planner
+        # pauses on ERROR, and a fault must not wait up to diagnostics_period to reach it
+        self._published_levels: tuple[tuple[str, int], ...] = ()
+        self.create_timer(LEVEL_WATCH_PERIOD, self._watch_levels, clock=self._steady)
 
         if self._value("autostart"):
             if self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
@@ -352,7 +358,15 @@ class DriverNode(LifecycleNode):
             if self.context.ok():
                 raise
 
-    def _publish_diagnostics(self) -> None:
+    def _watch_levels(self) -> None:
+        core = self._core
+        if core is None:
+            return
+        entries = core.status()
+        if tuple((e.name, e.level) for e in entries) != self._published_levels:
+            self._publish_diagnostics(entries)
+
+    def _publish_diagnostics(self, entries: list[StatusEntry] | None = None) -> None:
         core = self._core
         label = self._lifecycle_label()
         if core is None:
@@ -366,8 +380,9 @@ class DriverNode(LifecycleNode):
                                    (("estop_latched", str(bool(self._latched))),
                                     ("dropped_unconfigured",
                                      str(self._dropped_unconfigured))))]
-        else:
+        elif entries is None:
             entries = core.status()
+        self._published_levels = tuple((e.name, e.level) for e in entries)
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
         for entry in entries:

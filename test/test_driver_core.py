@@ -32,6 +32,7 @@ from crawler_motion.driver_core import (
 )
 from crawler_motion.motor_manager_sim import MotorManagerSim
 from crawler_motion.protocol import (
+    AxisFlags,
     ControlFrame,
     MotorProtocol,
     TargetFrame,
@@ -820,3 +821,67 @@ def wait_for(predicate, timeout: float) -> bool:
             return True
         time.sleep(0.005)
     return bool(predicate())
+
+
+def test_a_stalled_axis_is_an_error_until_it_moves_again(rig):
+    """A stall (a leg blocked by a rock) pauses the gait like a fault bit; it clears by itself."""
+    rig.core.activate()
+    rig.run(0.2, STAND)
+    rig.sim.stall_axis(4)
+    rig.run(0.05, STAND)
+    axis = rig.entry("axis 04")
+    assert axis.level == ERROR and "stalled" in axis.message
+    manager = rig.entry("motor manager")
+    assert manager.level == ERROR and "stalled" in manager.message
+    assert "lb_shoulder_joint" in manager.message
+    rig.sim.stall_axis(4, stalled=False)
+    rig.run(0.05, STAND)
+    assert rig.entry("axis 04").level == OK and rig.entry("motor manager").level == OK
+
+
+def test_a_repeated_feedback_counter_is_a_stale_frame(proto):
+    """A position or status frame repeating its group's counter (a stuck sender, a replay)
+    is dropped and counted, never published."""
+    rig = Rig(proto, sim=False)
+    try:
+        first = proto.encode_feedback(proto.to_axis(STAND), 1)
+        for msg in first:
+            rig.spy.send(msg)
+        rig.core.poll()
+        assert len(rig.feedback) == 1
+        moved = STAND.copy()
+        moved[:3] += 0.2
+        replay = proto.encode_feedback(proto.to_axis(moved), 1)  # same counter, new values
+        for msg in replay:
+            rig.spy.send(msg)
+        status = proto.encode_status([AxisFlags(enabled=True)] * proto.n_axes, 5)
+        for msg in status + status:  # the second copy repeats the counters
+            rig.spy.send(msg)
+        rig.core.poll()
+        c = rig.core.counters
+        assert c.rx_dropped == len(replay) + len(status)
+        assert "repeated" in rig.core.last_rx_error
+        assert len(rig.feedback) == 1
+        for msg in proto.encode_feedback(proto.to_axis(moved), 2):  # the next counter: fine
+            rig.spy.send(msg)
+        rig.core.poll()
+        assert len(rig.feedback) == 2
+        np.testing.assert_allclose(rig.feedback[-1], moved, atol=RES)
+    finally:
+        rig.close()
+
+
+def test_reset_without_enable_is_an_error(rig):
+    """After ~/reset the motors stay disabled until ~/enable: an ERROR, so the planner keeps
+    the gait paused instead of walking on while nothing moves."""
+    rig.core.activate()
+    rig.run(0.2, STAND)
+    assert rig.core.estop("test")
+    rig.run(0.1)
+    assert rig.core.reset()[0]
+    rig.run(0.1)
+    manager = rig.entry("motor manager")
+    assert manager.level == ERROR and "~/enable" in manager.message
+    assert rig.core.enable()[0]
+    rig.run(0.3, STAND)
+    assert rig.entry("motor manager").level == OK, rig.entry("motor manager").message

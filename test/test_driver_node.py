@@ -328,6 +328,26 @@ def test_diagnostics_content(vrig, graph):
     assert graph.last_status("motor manager").level == DiagnosticStatus.ERROR
 
 
+def test_a_level_change_is_published_at_once_not_at_the_next_period(vrig, graph):
+    """diagnostics_period 10 s: a fault still reaches /diagnostics (and so the planner) in
+    about LEVEL_WATCH_PERIOD, and its clearing too."""
+    node = make_driver(graph, vrig, diagnostics_period=10.0)
+    node.trigger_configure()
+    node.trigger_activate()
+    assert graph.stream(GOAL, lambda: converged(graph, GOAL), 5.0)
+    assert wait_until(lambda: graph.last_status("motor manager") is not None
+                      and graph.last_status("motor manager").level == DiagnosticStatus.OK, 2.0)
+    vrig.sim.stall_axis(4)
+    t0 = time.monotonic()
+    assert wait_until(lambda: graph.last_status("motor manager").level
+                      == DiagnosticStatus.ERROR, 1.0)
+    assert time.monotonic() - t0 < 5.0  # not the 10 s period
+    assert "stalled" in graph.last_status("motor manager").message
+    vrig.sim.stall_axis(4, stalled=False)
+    assert wait_until(lambda: graph.last_status("motor manager").level
+                      == DiagnosticStatus.OK, 1.0)
+
+
 def test_watchdog_holds_until_enable_service(vrig, graph):
     node = make_driver(graph, vrig, command_timeout=0.2)
     node.trigger_configure()
