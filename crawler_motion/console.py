@@ -200,16 +200,20 @@ class Console:
             return False, f"timed out after {timeout:g} s in {describe(self.status or {})}"
         return True, describe(self.status or {})
 
-    def run_when_ready(self, command: dict[str, Any], timeout: float, attempts: int = 5
-                       ) -> tuple[bool, str]:
-        """`run`, retried while the planner refuses only because it is paused (a transient
-        motor-manager fault such as a late heartbeat), waiting for the pause to clear."""
+    def run_when_ready(self, command: dict[str, Any], timeout: float,
+                       retry_for: float | None = None) -> tuple[bool, str]:
+        """`run`, retried every 0.5 s for up to ``retry_for`` [s] (default ``timeout``) while
+        the planner refuses it only for a transient reason: paused by a motor-manager fault
+        such as a late heartbeat (waits for the pause to clear), or no measured joint_states
+        yet (the driver's feedback still being discovered)."""
+        end = time.monotonic() + (timeout if retry_for is None else retry_for)
         ok, message = self.run(command, timeout)
-        for _ in range(attempts - 1):
-            if ok or ("paused" not in message and "no measured" not in message):
+        while not ok and ("paused" in message or "no measured" in message):
+            if time.monotonic() >= end:
                 break
             self.spin_for(0.5)
-            self.wait_until(lambda: not (self.status or {}).get("paused"), timeout)
+            self.wait_until(lambda: not (self.status or {}).get("paused"),
+                            max(0.0, end - time.monotonic()))
             ok, message = self.run(command, timeout)
         return ok, message
 
