@@ -71,6 +71,8 @@ MOVE_SPEED_FRACTION = 0.5
 REST_PEAK_SPEED = 1.875
 #: A measurement older than this [s] cannot start a stand / sit move.
 MEASUREMENT_MAX_AGE = 1.0
+#: `PlannerCore.plan_ahead(now)` plans the next slot at most this long before its boundary [s].
+PLAN_AHEAD_HORIZON = 0.2
 #: Measured angles up to this far outside a limit [rad] start a move from the limit.
 MEASURED_LIMIT_TOLERANCE = 0.02
 #: A finite walk is checked up front with `plan_walk` for at most this many steps: the steady
@@ -440,16 +442,21 @@ class PlannerCore:
             return self._tick_move(now)
         return None
 
-    def plan_ahead(self) -> bool:
+    def plan_ahead(self, now: float | None = None) -> bool:
         """Plan and check the next slot now, ahead of its boundary; True if it planned.
 
         Call it between ticks (the node's ticker does, right after each tick): the tick at
         the boundary then only switches slots, and the ~2 ms of solving and checking stay off
         the tick. The plan is used only if its inputs (current slot, new walk parameters,
         stop request) are unchanged at the boundary; otherwise the tick plans as before.
+        With ``now`` [s], nothing is planned earlier than `PLAN_AHEAD_HORIZON` before the
+        boundary, so a stream of changing twists is not re-planned on every tick.
         """
         if (self.state not in (WALKING, STOPPING) or self._waiting or self._seq is None
                 or self._slot is None or self._seq.standing):
+            return False
+        if now is not None and (self._slot_t0 + self._slot.duration - float(now)
+                                > PLAN_AHEAD_HORIZON):
             return False
         stopping, pending = self._next_inputs()
         if self._ahead is not None and self._ahead.matches(self._slot, pending, stopping):

@@ -267,7 +267,7 @@ class PlannerNode(Node):
         """Ticker thread, right after a tick: plan the next slot before its boundary."""
         try:
             with self._lock:
-                self.core.plan_ahead()
+                self.core.plan_ahead(now)
         except Exception as exc:  # the tick plans it again if needed
             if self.context.ok():
                 self._log("error", f"planning ahead failed: {type(exc).__name__}: {exc}")

@@ -619,7 +619,7 @@ def _run_script(script: list[tuple[float, str]], ahead: bool) -> tuple[Clock, in
             clock.send(todo.pop(0)[1])
         clock.tick()
         if ahead:
-            planned += clock.core.plan_ahead()
+            planned += clock.core.plan_ahead(clock.t)  # as the node: the next tick's time
         if clock.core.state == STANDING and not todo:
             return clock, planned
         assert clock.t - t0 < 30.0
@@ -642,10 +642,10 @@ def test_planning_ahead_changes_no_target(script, monkeypatch):
 
     real_plan_ahead = PlannerCore.plan_ahead
 
-    def marked(self):
+    def marked(self, now=None):
         planning_ahead[0] = True
         try:
-            return real_plan_ahead(self)
+            return real_plan_ahead(self, now)
         finally:
             planning_ahead[0] = False
 
@@ -671,3 +671,14 @@ def test_plan_ahead_does_nothing_when_there_is_nothing_to_plan():
     assert clock.core.plan_ahead() is False  # already planned, inputs unchanged
     clock.send('{"command": "stop"}')
     assert clock.core.plan_ahead() is True  # the stop changed the next slot
+
+
+def test_plan_ahead_waits_for_the_horizon_before_the_boundary():
+    clock = standing()
+    clock.send('{"command": "walk"}')
+    t0 = clock.t
+    clock.tick()
+    horizon = pc.PLAN_AHEAD_HORIZON
+    assert SLOT > horizon + 2 * DT
+    assert clock.core.plan_ahead(t0 + SLOT - horizon - DT) is False  # too early
+    assert clock.core.plan_ahead(t0 + SLOT - horizon + DT) is True
