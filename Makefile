@@ -19,12 +19,20 @@ test: $(STAMP)
 	$(PY) -m ruff check crawler_motion test scripts
 	$(PY) -m pytest -q
 
+fuzz: $(STAMP)
+	FUZZ_EXAMPLES=10000 $(PY) -m pytest -q -s test/test_fuzz_chain.py test/test_commands.py -k fuzz
+
 lint: $(STAMP)
 	$(PY) -m ruff check crawler_motion test scripts
 
 bench: $(STAMP)
 	$(PY) scripts/bench.py
 	$(PY) scripts/smoothness_report.py --out plots
+	$(PY) scripts/bench.py --e2e
+
+# The whole stack walking for 10 minutes on the cross-process bus; exit 1 if anything was lost.
+soak: $(STAMP)
+	$(PY) scripts/soak.py --rate 200 --duration 600
 
 plots: $(STAMP)
 	$(VENV)/bin/crawler-motion plot --out plots

@@ -90,12 +90,27 @@ def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def finite_float(value: Any) -> float | None:
+    """``value`` as a finite float if it is an int or float (not bool) that is one; else None
+    (NaN, inf, an int beyond the float range, anything else)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:  # an int of more than ~308 digits
+        return None
+    return number if math.isfinite(number) else None
+
+
 def _number(value: Any, name: str, lo: float, hi: float, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise CommandError(f"'{name}' must be a number in [{lo:g}, {hi:g}] {unit}, "
                            f"got {json.dumps(value)[:40]}")
-    number = float(value)
-    if not math.isfinite(number) or not lo <= number <= hi:
+    number = finite_float(value)
+    if number is None:
+        raise CommandError(f"'{name}' = {str(value)[:40]} {unit} is outside [{lo:g}, {hi:g}] "
+                           f"{unit}")
+    if not lo <= number <= hi:
         raise CommandError(f"'{name}' = {number:g} {unit} is outside [{lo:g}, {hi:g}] {unit}")
     return number
 
@@ -217,10 +232,10 @@ def twist_to_params(vx: float, vy: float, wz: float, cfg: Config, base: WalkPara
     """
     values = []
     for name, value in (("linear.x", vx), ("linear.y", vy), ("angular.z", wz)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
-                value):
-            raise CommandError(f"cmd_vel {name} must be a finite number, got {value!r}")
-        values.append(float(value))
+        number = finite_float(value)
+        if number is None:
+            raise CommandError(f"cmd_vel {name} must be a finite number, got {value!r:.40}")
+        values.append(number)
     vx, vy, wz = values
     try:
         p = validate_params(base, cfg)

@@ -27,6 +27,8 @@ from crawler_motion.trajectory import Piecewise, Segment, SwingShape, rest_segme
 
 #: Sampling period used to check a planned walk against the workspace and the limits [s].
 CHECK_PERIOD = 0.005
+#: Relative tolerance of the joint velocity check of a planned walk (rounding only).
+VELOCITY_EPS = 1e-9
 #: Smallest arc/lift ratio for profiles with a junction speed at B (below it the arc dips under
 #: B's height: with the shipped smooth profile the bound is 0.0245).
 MIN_ARC_RATIO = 0.05
@@ -287,16 +289,20 @@ class WalkPlan:
 
 
 def check_trajectories(robot: RobotConfig, legs: tuple[Piecewise, ...], what: str) -> None:
-    """Sample every leg (every CHECK_PERIOD and every junction) and run IK with limits.
+    """Sample every leg (every CHECK_PERIOD and every junction), run IK with the position
+    limits and check the joint rates against the velocity limits.
 
-    Raises `GaitError` (with the kinematics reason and the time) if any sample fails.
+    Raises `GaitError` (with the kinematics reason, or the joint, rate and limit, and the
+    time) if any sample fails.
     """
     t0, t1 = legs[0].t0, legs[0].t_end
     n = max(2, math.ceil((t1 - t0) / CHECK_PERIOD) + 1)
     times = np.unique(np.concatenate([np.linspace(t0, t1, n)] + [leg.breaks for leg in legs]))
-    feet = np.stack([leg.evaluate(times)[0] for leg in legs], axis=1)
+    states = [leg.evaluate(times) for leg in legs]
+    feet = np.stack([p for p, _, _ in states], axis=1)
     try:
-        inverse_kinematics(robot, feet)
+        q = inverse_kinematics(robot, feet)
+        rates = np.abs(joint_velocities(robot, q, np.stack([v for _, v, _ in states], axis=1)))
     except KinematicsError as exc:
         msg = str(exc)
         marker = " at sample ("
@@ -305,6 +311,15 @@ def check_trajectories(robot: RobotConfig, legs: tuple[Piecewise, ...], what: st
             msg = msg.replace(msg[msg.index(marker):msg.index(")", msg.index(marker)) + 1],
                               f" at t = {times[idx]:.3f} s")
         raise GaitError(f"{what} cannot be executed: {msg}") from exc
+    over = rates / np.broadcast_to(robot.velocity, rates.shape[-1:])
+    worst = np.unravel_index(int(np.argmax(over)), over.shape)
+    if over[worst] > 1.0 + VELOCITY_EPS:
+        k, leg, joint = (int(i) for i in worst)
+        name = robot.joint_names[3 * leg + joint]
+        raise GaitError(f"{what} cannot be executed: {name} would turn at "
+                        f"{rates[worst]:.2f} rad/s at t = {times[k]:.3f} s, above its velocity "
+                        f"limit {float(np.broadcast_to(robot.velocity, (3,))[joint]):g} rad/s; "
+                        f"use a longer swing_time, or a shorter stride, lift or arc")
 
 
 def iter_walk(cfg: Config, params: WalkParams, steps: int) -> Iterator[Slot]:

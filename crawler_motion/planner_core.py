@@ -31,7 +31,13 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from crawler_motion.commands import Command, is_zero_twist, parse_gait_command, twist_to_params
+from crawler_motion.commands import (
+    Command,
+    finite_float,
+    is_zero_twist,
+    parse_gait_command,
+    twist_to_params,
+)
 from crawler_motion.config import Config
 from crawler_motion.errors import (
     CommandError,
@@ -385,9 +391,8 @@ class PlannerCore:
         """
         now = self._clock(now)
         for name, value in (("linear.x", vx), ("linear.y", vy), ("angular.z", wz)):
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
-                    value):
-                self._refuse(f"cmd_vel {name} must be a finite number, got {value!r}", now)
+            if finite_float(value) is None:
+                self._refuse(f"cmd_vel {name} must be a finite number, got {value!r:.40}", now)
         zero = is_zero_twist(vx, vy, wz)
         if self.state == WALKING and self._source == "cmd_vel":
             if zero:

@@ -32,7 +32,7 @@ from crawler_motion.gait import (
     standing_pose,
     validate_params,
 )
-from crawler_motion.kinematics import inverse_kinematics
+from crawler_motion.kinematics import inverse_kinematics, joint_velocities
 from crawler_motion.trajectory import Piecewise
 
 CFG = load_config()
@@ -408,7 +408,18 @@ def make_params(d: dict) -> WalkParams:
 
 
 def assert_refusal_is_genuine(p: WalkParams, steps: int, msg: str) -> None:
-    """The leg and time a refusal names really fail the IK there."""
+    """The leg and time a refusal names really fail the IK there (or, for a velocity
+    refusal, the joint really turns faster than its limit there)."""
+    fast = re.search(r"(\w+)_(root|shoulder|knee)_joint would turn at .* at t = ([0-9.]+) s", msg)
+    if fast:
+        i, j = IDX[fast.group(1)], ("root", "shoulder", "knee").index(fast.group(2))
+        legs, _ = join(list(iter_walk(CFG, p, steps)))
+        t = float(fast.group(3)) + np.linspace(-1e-3, 1e-3, 21)
+        pos, vel, _ = states(legs, t)
+        rates = joint_velocities(ROBOT, inverse_kinematics(ROBOT, pos), vel)
+        limit = np.broadcast_to(ROBOT.velocity, (3,))[j]
+        assert np.abs(rates[:, i, j]).max() > limit, msg
+        return
     leg = re.search(r"leg (\w+)", msg)
     when = re.search(r"at t = ([0-9.]+) s", msg)
     assert leg and when, msg
@@ -644,3 +655,20 @@ def test_gait_and_body_height_change_only_while_standing():
 def test_rest_profile_accepts_a_zero_arc():
     plan = plan_walk(CFG, WalkParams.defaults(GAIT, profile="rest", arc=0.0), 1)
     assert plan.duration > 0
+
+
+@pytest.mark.parametrize(("swing_time", "refused"), [
+    (0.1, True),    # ~17 rad/s on a root joint with the default stride and height
+    (0.15, True),
+    (0.3, False),   # within the 10 rad/s of config/robot.yaml
+])
+def test_a_walk_faster_than_the_joint_velocity_limits_is_refused(swing_time, refused):
+    p = params(swing_time=swing_time)
+    if not refused:
+        plan = plan_walk(CFG, p, 1)
+        _, qd = plan.joints(np.linspace(0.0, plan.duration, 400))
+        assert np.abs(qd).max() <= np.broadcast_to(ROBOT.velocity, (3,)).max()
+        return
+    with pytest.raises(GaitError, match=r"would turn at [0-9.]+ rad/s .* above its velocity "
+                                        r"limit 10 rad/s; use a longer swing_time"):
+        plan_walk(CFG, p, 1)

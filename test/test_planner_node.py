@@ -236,7 +236,7 @@ def test_walk_steps_and_status(ros):
     probe = ros.probe
     ros.stand()
     mark = probe.mark()
-    probe.send('{"command": "walk", "steps": 1, "swing_time": 0.2}')
+    probe.send('{"command": "walk", "steps": 1, "swing_time": 0.3}')
     status = probe.wait_state("WALKING", mark)
     assert (status["steps"], status["source"], status["gait"]) == (1, "command", "diagonal")
     status = probe.wait_state("STANDING", mark)
