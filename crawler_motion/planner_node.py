@@ -37,6 +37,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Twist
 from rcl_interfaces.msg import (
     FloatingPointRange,
+    IntegerRange,
     ParameterDescriptor,
     ParameterType,
     SetParametersResult,
@@ -60,7 +61,7 @@ from crawler_motion.commands import (
 from crawler_motion.config import config_path, load_config
 from crawler_motion.errors import CommandError, CrawlerMotionError
 from crawler_motion.planner_core import PlannerCore
-from crawler_motion.ticker import Ticker
+from crawler_motion.ticker import Ticker, check_priority
 
 #: Python thread switch interval of the planner process [s] (the default is 5 ms).
 GIL_SWITCH_INTERVAL = 0.0005
@@ -118,6 +119,17 @@ class PlannerNode(Node):
                     descriptor.additional_constraints = (
                         f"one of {sorted(self.cfg.gait.profiles)}")
             self.declare_parameter(name, default, descriptor)
+        priority = self.declare_parameter(
+            "tick_priority", 0,
+            ParameterDescriptor(type=ParameterType.PARAMETER_INTEGER, read_only=True,
+                                integer_range=[IntegerRange(from_value=0, to_value=99, step=1)],
+                                description="0: normal scheduling; 1-99: SCHED_FIFO priority "
+                                            "of the tick thread (needs CAP_SYS_NICE)"),
+        ).value
+        try:
+            check_priority(priority)
+        except ValueError as exc:
+            raise CommandError(str(exc)) from None
         settings = validate_parameters(self._parameter_values(), self.cfg)
         self.core = PlannerCore(self.cfg, settings.rate, defaults=settings.defaults,
                                 cmd_vel_timeout=settings.cmd_vel_timeout)
@@ -140,7 +152,7 @@ class PlannerNode(Node):
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._plan_ahead,
-                              name="planner-ticker")
+                              name="planner-ticker", priority=priority)
         self._missed_logged = 0
         self._status_timer = self.create_timer(STATUS_PERIOD, self._publish_status,
                                                clock=steady)
@@ -151,6 +163,10 @@ class PlannerNode(Node):
             f"{settings.defaults.gait}/{settings.defaults.profile}; IDLE until 'stand'")
         self._publish_status()
         self._ticker.start()
+        if self._ticker.priority_error:
+            self.get_logger().warning(self._ticker.priority_error)
+        elif priority:
+            self.get_logger().info(f"tick thread at SCHED_FIFO priority {priority}")
 
     def destroy_node(self) -> None:
         """Stop the ticker thread, then destroy the node."""

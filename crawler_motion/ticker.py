@@ -12,17 +12,31 @@ until absolute deadlines ``t0 + k * period`` on ``time.monotonic`` and never dri
 
 ``idle`` (optional) runs right after a tick, in the same thread: work that must not delay a
 tick (planning the next gait slot ahead of its boundary) goes there.
+
+``priority`` 1..99 runs the thread under SCHED_FIFO (Linux; needs CAP_SYS_NICE or an rtprio
+limit), as real-time controllers do: the thread then preempts ordinary processes when its
+deadline comes. If it cannot be set, the ticker runs at normal priority and says why in
+``priority_error``.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 from collections.abc import Callable
 
 #: Largest allowed tick rate [Hz] (a sanity bound, not a performance claim).
 MAX_RATE_HZ = 10_000.0
+
+
+def check_priority(priority: int) -> int:
+    """A real-time priority: 0 (normal scheduling) or 1..99 (SCHED_FIFO); raises ValueError."""
+    if isinstance(priority, bool) or not isinstance(priority, int) or not 0 <= priority <= 99:
+        raise ValueError(f"tick priority must be an integer in [0, 99] (0: normal scheduling, "
+                         f"1-99: SCHED_FIFO), got {priority!r}")
+    return priority
 
 
 def catch_up(deadline: float, now: float, period: float) -> tuple[float, int, float]:
@@ -48,8 +62,10 @@ class Ticker:
     """
 
     def __init__(self, period: float, tick: Callable[[float], None],
-                 idle: Callable[[float], None] | None = None, name: str = "ticker") -> None:
+                 idle: Callable[[float], None] | None = None, name: str = "ticker",
+                 priority: int = 0) -> None:
         self._period = self._checked(period)
+        self._priority = check_priority(priority)
         self._tick = tick
         self._idle = idle
         self._stop = threading.Event()
@@ -63,6 +79,9 @@ class Ticker:
         self.worst_delay = 0.0
         #: The exception that stopped the ticker, if any.
         self.error: BaseException | None = None
+        #: Why the real-time priority could not be set ("" if it was, or none was asked).
+        self.priority_error = ""
+        self._started = threading.Event()
 
     @staticmethod
     def _checked(period: float) -> float:
@@ -85,8 +104,10 @@ class Ticker:
             self._period = value
 
     def start(self) -> None:
-        """Start ticking; the first tick is one period from now."""
+        """Start ticking; the first tick is one period from now. Returns once the thread
+        runs (and has tried its priority: see `priority_error`)."""
         self._thread.start()
+        self._started.wait(5.0)
 
     def stop(self, timeout: float = 1.0) -> bool:
         """Stop and join the thread; True if it ended within ``timeout`` [s]."""
@@ -101,6 +122,13 @@ class Ticker:
         return self._thread.is_alive()
 
     def _run(self) -> None:
+        if self._priority > 0:
+            try:  # pid 0: this thread (Linux)
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self._priority))
+            except (AttributeError, OSError) as exc:  # no permission, or not Linux
+                self.priority_error = (f"SCHED_FIFO priority {self._priority} not set "
+                                       f"({exc}); ticking at normal priority")
+        self._started.set()
         with self._lock:
             period = self._period
         deadline = time.monotonic() + period

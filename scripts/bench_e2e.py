@@ -323,11 +323,12 @@ class Stack:
     /diagnostics counters and a `TapProcess` listening on the bus."""
 
     def __init__(self, rate: float, *, gait: str = "diagonal",
-                 command_timeout: float = DEMO_COMMAND_TIMEOUT, logs: Path | None = None
-                 ) -> None:
+                 command_timeout: float = DEMO_COMMAND_TIMEOUT, logs: Path | None = None,
+                 tick_priority: int = 0) -> None:
         from crawler_motion.config import load_config
 
         self.rate = float(rate)
+        self.tick_priority = int(tick_priority)
         self.gait = gait
         self.command_timeout = float(command_timeout)
         self.cfg = load_config()
@@ -417,7 +418,8 @@ class Stack:
                        "-p", "can_interface:=udp_multicast", "-p", f"can_channel:={group}",
                        "-p", f"can_port:={self.port}"],
             "planner": [py, "-m", "crawler_motion.planner_node", "--ros-args",
-                        "-p", f"rate:={self.rate}", "-p", f"gait:={self.gait}"],
+                        "-p", f"rate:={self.rate}", "-p", f"gait:={self.gait}",
+                        "-p", f"tick_priority:={self.tick_priority}"],
         }
         for name, cmd in commands.items():
             with open(self.logs / f"{name}.log", "wb") as log:
@@ -705,10 +707,10 @@ def listener_delay_ms(groups: np.ndarray) -> tuple[float, float]:
 
 
 def bench_rate(rate: float, seconds: float, *, settle: float = 1.0, gait: str = "diagonal",
-               say: Callable[[str], None] = print) -> RateResult:
+               say: Callable[[str], None] = print, tick_priority: int = 0) -> RateResult:
     """Start a stack at ``rate``, stand, walk, measure for ``seconds``, stop, analyse."""
     result = RateResult(rate)
-    stack = Stack(rate, gait=gait)
+    stack = Stack(rate, gait=gait, tick_priority=tick_priority)
     try:
         say(f"{rate:g} Hz: starting the stack (logs in {stack.logs})")
         stack.start()
@@ -836,7 +838,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=15.0,
                         help="measured walking time per rate [s] (default 15)")
     parser.add_argument("--gait", choices=("diagonal", "wave"), default="diagonal")
+    parser.add_argument("--tick-priority", type=int, default=0,
+                        help="the planner's tick_priority (1-99: SCHED_FIFO tick thread; "
+                             "default 0: normal scheduling)")
     args = parser.parse_args(argv)
+    if not 0 <= args.tick_priority <= 99:
+        parser.error(f"--tick-priority must be in [0, 99], got {args.tick_priority}")
     if not (math.isfinite(args.seconds) and args.seconds > 0):
         parser.error(f"--seconds must be > 0, got {args.seconds}")
     t_start = time.monotonic()
@@ -847,7 +854,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     results = []
     try:
         for rate in args.rates:
-            results.append(bench_rate(rate, args.seconds, gait=args.gait, say=say))
+            results.append(bench_rate(rate, args.seconds, gait=args.gait, say=say,
+                                      tick_priority=args.tick_priority))
     except KeyboardInterrupt:
         return 130
     print_table(results, args.seconds)

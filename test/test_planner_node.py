@@ -285,10 +285,12 @@ def test_cmd_vel_walk_times_out_and_estop_stops_the_output(ros):
     assert probe.commands_between(t0, time.monotonic()) == []
 
 
-def test_main_refuses_invalid_parameters_and_exits_1():
+@pytest.mark.parametrize(("param", "fragment"), [("lift:=0.035", "arc"),
+                                                  ("tick_priority:=100", "tick_priority")])
+def test_main_refuses_invalid_parameters_and_exits_1(param, fragment):
     proc = subprocess.run(
-        [sys.executable, "-m", "crawler_motion.planner_node", "--ros-args", "-p", "lift:=0.035"],
+        [sys.executable, "-m", "crawler_motion.planner_node", "--ros-args", "-p", param],
         capture_output=True, text=True, timeout=20)
     assert proc.returncode == 1
     assert "planner cannot start" in proc.stderr + proc.stdout
-    assert "arc" in proc.stderr + proc.stdout
+    assert fragment in proc.stderr + proc.stdout

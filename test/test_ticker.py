@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 
 import pytest
 
-from crawler_motion.ticker import MAX_RATE_HZ, Ticker, catch_up
+from crawler_motion.ticker import MAX_RATE_HZ, Ticker, catch_up, check_priority
 
 P = 0.01
 
@@ -114,3 +115,30 @@ def test_a_new_period_applies_to_the_running_ticker():
     ticker.stop()
     assert ticker.period == 0.02
     assert len(stamps) - mark <= 12  # ~10 at 50 Hz; ~100 if the old period had stayed
+
+
+@pytest.mark.parametrize(("priority", "ok"), [
+    (0, True), (1, True), (99, True), (-1, False), (100, False), (True, False), (1.0, False),
+    ("50", False)])
+def test_check_priority_table(priority, ok):
+    if ok:
+        assert check_priority(priority) == priority
+    else:
+        with pytest.raises(ValueError, match=r"integer in \[0, 99\]"):
+            check_priority(priority)
+
+
+@pytest.mark.skipif(not hasattr(os, "SCHED_FIFO"), reason="no SCHED_FIFO on this platform")
+def test_a_priority_is_set_in_the_thread_or_the_reason_is_given():
+    policies: list[int] = []
+    ticker = Ticker(0.002, lambda now: policies.append(os.sched_getscheduler(0)), priority=10)
+    ticker.start()
+    time.sleep(0.05)
+    ticker.stop()
+    assert policies
+    if ticker.priority_error:  # no permission here: normal scheduling, and why
+        assert "SCHED_FIFO priority 10 not set" in ticker.priority_error
+        assert set(policies) == {os.SCHED_OTHER}
+    else:
+        assert set(policies) == {os.SCHED_FIFO}
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER  # only the tick thread
