@@ -38,7 +38,7 @@ from crawler_motion.commands import (
     parse_gait_command,
     twist_to_params,
 )
-from crawler_motion.config import Config
+from crawler_motion.config import Config, RobotConfig
 from crawler_motion.errors import (
     CommandError,
     ConfigError,
@@ -188,6 +188,40 @@ class _Ahead:
     def matches(self, after: Slot | None, pending: WalkParams | None, stopping: bool) -> bool:
         """True if planned after slot ``after`` with these parameters and stop flag."""
         return self.after is after and self.pending is pending and self.stopping == stopping
+
+
+def _plan_next(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | None,
+               stopping: bool) -> tuple[Slot | None, GaitSequencer | None, str | None]:
+    """Plan and check the next slot on ``trial`` (a copy of the walk's sequencer).
+
+    Returns ``(slot, trial, None)`` or ``(None, None, reason)``; None slot: nothing left."""
+    try:
+        if params is not None:
+            trial.set_params(params)
+        slot = trial.next_slot(stopping=stopping)
+        if slot is not None:
+            check_trajectories(robot, slot.legs, f"the next ({slot.kind}) slot")
+    except (GaitError, KinematicsError, TrajectoryError) as exc:
+        return None, None, str(exc)
+    return slot, trial, None
+
+
+@dataclass(frozen=True)
+class AheadJob:
+    """Planning of the next slot ahead of its boundary, detached from the core: `run` uses
+    only these fields (``seq`` is a private copy), so it may run without the caller's lock."""
+
+    robot: RobotConfig
+    seq: GaitSequencer
+    after: Slot
+    pending: WalkParams | None
+    stopping: bool
+
+    def run(self) -> _Ahead:
+        """Plan, check and prepare the evaluator of the next slot (~2-4 ms)."""
+        slot, seq, error = _plan_next(self.robot, self.seq, self.pending, self.stopping)
+        track = _Track(slot.legs) if slot is not None and error is None else None
+        return _Ahead(self.after, self.pending, self.stopping, slot, seq, error, track)
 
 def sitting_pose(cfg: Config) -> np.ndarray:
     """Sitting joint angles ``(n_legs, 3)`` [rad]: body at the minimum height, legs tucked.
@@ -450,25 +484,40 @@ class PlannerCore:
     def plan_ahead(self, now: float | None = None) -> bool:
         """Plan and check the next slot now, ahead of its boundary; True if it planned.
 
-        Call it between ticks (the node's ticker does, right after each tick): the tick at
-        the boundary then only switches slots, and the ~2 ms of solving and checking stay off
-        the tick. The plan is used only if its inputs (current slot, new walk parameters,
-        stop request) are unchanged at the boundary; otherwise the tick plans as before.
-        With ``now`` [s], nothing is planned earlier than `PLAN_AHEAD_HORIZON` before the
-        boundary, so a stream of changing twists is not re-planned on every tick.
+        Call it between ticks: the tick at the boundary then only switches slots, and the
+        ~2-4 ms of solving and checking stay off the tick. The plan is used only if its inputs
+        (current slot, new walk parameters, stop request) are unchanged at the boundary;
+        otherwise the tick plans as before. With ``now`` [s], nothing is planned earlier than
+        `PLAN_AHEAD_HORIZON` before the boundary, so a stream of changing twists is not
+        re-planned on every tick. Same as ``store_ahead(ahead_job(now).run())``, the split
+        a multi-threaded caller uses to plan without holding its lock.
         """
+        job = self.ahead_job(now)
+        if job is None:
+            return False
+        self.store_ahead(job.run())
+        return True
+
+    def ahead_job(self, now: float | None = None) -> AheadJob | None:
+        """The inputs of planning the next slot ahead (a private copy), or None if there is
+        nothing to plan yet (see `plan_ahead`). `AheadJob.run` touches no state of the core."""
         if (self.state not in (WALKING, STOPPING) or self._waiting or self._seq is None
                 or self._slot is None or self._seq.standing):
-            return False
+            return None
         if now is not None and (self._slot_t0 + self._slot.duration - float(now)
                                 > PLAN_AHEAD_HORIZON):
-            return False
+            return None
         stopping, pending = self._next_inputs()
         if self._ahead is not None and self._ahead.matches(self._slot, pending, stopping):
+            return None
+        return AheadJob(self.robot, copy.copy(self._seq), self._slot, pending, stopping)
+
+    def store_ahead(self, ahead: _Ahead) -> bool:
+        """Keep a plan made by `AheadJob.run`; False (dropped) if the slot it follows is no
+        longer the current one. It is used at the boundary only if its inputs still match."""
+        if ahead.after is None or ahead.after is not self._slot:
             return False
-        slot, seq, error = self._try_slot(pending, stopping)
-        track = _Track(slot.legs) if slot is not None and error is None else None
-        self._ahead = _Ahead(self._slot, pending, stopping, slot, seq, error, track)
+        self._ahead = ahead
         return True
 
     def status(self) -> dict[str, Any]:
@@ -732,16 +781,7 @@ class PlannerCore:
     def _try_slot(self, params: WalkParams | None, stopping: bool
                   ) -> tuple[Slot | None, GaitSequencer | None, str | None]:
         assert self._seq is not None
-        trial = copy.copy(self._seq)
-        try:
-            if params is not None:
-                trial.set_params(params)
-            slot = trial.next_slot(stopping=stopping)
-            if slot is not None:
-                check_trajectories(self.robot, slot.legs, f"the next ({slot.kind}) slot")
-        except (GaitError, KinematicsError, TrajectoryError) as exc:
-            return None, None, str(exc)
-        return slot, trial, None
+        return _plan_next(self.robot, copy.copy(self._seq), params, stopping)
 
     def _plan_slot(self, t0: float) -> bool:
         """Plan, check and start the next slot at ``t0``; False if none started."""

@@ -11,8 +11,9 @@ transient local) on every change and at least once a second.
 
 Joint commands are published from a `ticker.Ticker` thread on the steady clock, not from an
 rclpy timer: the executor also runs every callback, and a busy executor delays or skips timer
-ticks. Right after each tick the same thread plans the next gait slot ahead of its boundary
-(`PlannerCore.plan_ahead`), so no tick waits for planning. Ticks skipped because the process
+ticks. After each tick it wakes a second, normal-priority thread that plans the next gait slot
+ahead of its boundary (`PlannerCore.ahead_job`, computed without the lock), so no tick waits
+for planning. Ticks skipped because the process
 was starved are counted (``missed_ticks`` in the status; a message is logged).
 
 
@@ -154,6 +155,11 @@ class PlannerNode(Node):
         self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._plan_ahead,
                               name="planner-ticker", priority=priority)
         self._missed_logged = 0
+        self._ahead_now = 0.0
+        self._ahead_wake = threading.Event()
+        self._ahead_stop = threading.Event()
+        self._ahead_thread = threading.Thread(target=self._ahead_loop, name="planner-ahead",
+                                              daemon=True)
         self._status_timer = self.create_timer(STATUS_PERIOD, self._publish_status,
                                                clock=steady)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -162,6 +168,7 @@ class PlannerNode(Node):
             f"planner ready: {self.cfg.source}, {settings.rate:g} Hz, gait "
             f"{settings.defaults.gait}/{settings.defaults.profile}; IDLE until 'stand'")
         self._publish_status()
+        self._ahead_thread.start()
         self._ticker.start()
         if self._ticker.priority_error:
             self.get_logger().warning(self._ticker.priority_error)
@@ -169,8 +176,12 @@ class PlannerNode(Node):
             self.get_logger().info(f"tick thread at SCHED_FIFO priority {priority}")
 
     def destroy_node(self) -> None:
-        """Stop the ticker thread, then destroy the node."""
+        """Stop the ticker and planning threads, then destroy the node."""
         self._ticker.stop(timeout=2.0)
+        self._ahead_stop.set()
+        self._ahead_wake.set()
+        if self._ahead_thread.is_alive():
+            self._ahead_thread.join(timeout=2.0)
         super().destroy_node()
 
     # ----------------------------------------------------------------- parameters
@@ -280,13 +291,29 @@ class PlannerNode(Node):
                 self._log("error", f"tick failed: {type(exc).__name__}: {exc}")
 
     def _plan_ahead(self, now: float) -> None:
-        """Ticker thread, right after a tick: plan the next slot before its boundary."""
-        try:
-            with self._lock:
-                self.core.plan_ahead(now)
-        except Exception as exc:  # the tick plans it again if needed
-            if self.context.ok():
-                self._log("error", f"planning ahead failed: {type(exc).__name__}: {exc}")
+        """Ticker thread, right after a tick: wake the planning thread (costs nothing)."""
+        self._ahead_now = now
+        self._ahead_wake.set()
+
+    def _ahead_loop(self) -> None:
+        """Planning thread (normal priority): plans the next slot before its boundary without
+        holding the core's lock while it computes, so the ticks go on meanwhile."""
+        while True:
+            self._ahead_wake.wait()
+            self._ahead_wake.clear()
+            if self._ahead_stop.is_set():
+                return
+            try:
+                with self._lock:
+                    job = self.core.ahead_job(self._ahead_now)
+                if job is None:
+                    continue
+                ahead = job.run()
+                with self._lock:
+                    self.core.store_ahead(ahead)
+            except Exception as exc:  # the boundary tick plans it itself if needed
+                if self.context.ok():
+                    self._log("error", f"planning ahead failed: {type(exc).__name__}: {exc}")
 
     def _after_core_call(self) -> None:
         with self._lock:

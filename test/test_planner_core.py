@@ -682,3 +682,33 @@ def test_plan_ahead_waits_for_the_horizon_before_the_boundary():
     assert SLOT > horizon + 2 * DT
     assert clock.core.plan_ahead(t0 + SLOT - horizon - DT) is False  # too early
     assert clock.core.plan_ahead(t0 + SLOT - horizon + DT) is True
+
+
+def test_a_plan_made_outside_the_lock_is_not_used_once_its_inputs_changed():
+    """ahead_job -> (a stop arrives) -> run -> store_ahead: the stored plan no longer matches,
+    so the boundary tick plans the stop itself; the walk is exactly the plain one."""
+    plain, early = standing(), standing()
+    for clock in (plain, early):
+        clock.send('{"command": "walk"}')
+        clock.run(0.5)  # inside the first slot, within PLAN_AHEAD_HORIZON of its end
+    job = early.core.ahead_job(early.t)
+    assert job is not None and early.core.ahead_job(early.t) is not None  # nothing stored yet
+    for clock in (plain, early):
+        clock.send('{"command": "stop"}')
+    ahead = job.run()  # planned for "keep walking"
+    assert early.core.store_ahead(ahead) is True
+    assert early.core.ahead_job(early.t) is not None  # the stop needs a new plan
+    plain.until(STANDING)
+    early.until(STANDING)
+    assert [s for _, s in plain.states] == [s for _, s in early.states]
+    np.testing.assert_array_equal(positions(plain), positions(early))
+
+
+def test_a_plan_for_a_finished_slot_is_dropped():
+    clock = standing()
+    clock.send('{"command": "walk"}')
+    clock.run(0.5)
+    job = clock.core.ahead_job(clock.t)
+    assert job is not None
+    clock.run(0.2)  # past the boundary: the tick planned and started the next slot
+    assert clock.core.store_ahead(job.run()) is False
