@@ -127,6 +127,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               "config/robot.yaml)", read_only=True),
     ParamSpec("autostart", False, "configure and activate right after start-up",
               read_only=True),
+    ParamSpec("priority", 0, "0: normal scheduling; 1-99: SCHED_FIFO priority of the driver "
+              "process, as real-time drivers run (needs CAP_SYS_NICE)", read_only=True,
+              minimum=0, maximum=99),
     ParamSpec("on_deactivate", "hold", "manager command sent on deactivation: hold (axes "
               "powered, holding) or disable (axes unpowered)", choices=ON_DEACTIVATE_CHOICES),
     ParamSpec("command_timeout", 0.2, "command watchdog [s]: no joint_commands for this long "

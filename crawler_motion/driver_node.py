@@ -64,6 +64,7 @@ from crawler_motion.driver_core import (
 )
 from crawler_motion.errors import ConfigError, CrawlerMotionError, ProtocolError
 from crawler_motion.protocol import MotorProtocol
+from crawler_motion.ticker import set_process_priority
 
 NODE_NAME = "driver"
 HARDWARE_ID = "motor_manager"
@@ -104,6 +105,13 @@ class DriverNode(LifecycleNode):
         reasons = validate_parameters(self._values())
         if reasons:
             raise ConfigError(f"invalid driver parameters: {'; '.join(reasons)}")
+        priority = self._value("priority")
+        if priority:  # every thread of the process, and those created later, inherit it
+            problem = set_process_priority(priority)
+            if problem:
+                self.get_logger().warning(f"{problem}; running at normal priority")
+            else:
+                self.get_logger().info(f"process at SCHED_FIFO priority {priority}")
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._after_set_parameters)
 

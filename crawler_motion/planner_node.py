@@ -62,7 +62,7 @@ from crawler_motion.commands import (
 from crawler_motion.config import config_path, load_config
 from crawler_motion.errors import CommandError, CrawlerMotionError
 from crawler_motion.planner_core import PlannerCore
-from crawler_motion.ticker import Ticker, check_priority
+from crawler_motion.ticker import Ticker, check_priority, set_process_priority
 
 #: Python thread switch interval of the planner process [s] (the default is 5 ms).
 GIL_SWITCH_INTERVAL = 0.0005
@@ -125,12 +125,16 @@ class PlannerNode(Node):
             ParameterDescriptor(type=ParameterType.PARAMETER_INTEGER, read_only=True,
                                 integer_range=[IntegerRange(from_value=0, to_value=99, step=1)],
                                 description="0: normal scheduling; 1-99: SCHED_FIFO priority "
-                                            "of the tick thread (needs CAP_SYS_NICE)"),
+                                            "of the tick thread, the rest of the process one "
+                                            "below (needs CAP_SYS_NICE)"),
         ).value
         try:
             check_priority(priority)
         except ValueError as exc:
             raise CommandError(str(exc)) from None
+        # the process one below the tick thread: a thread holding the GIL (the executor, the
+        # planning thread) must not be preempted by ordinary processes while a tick waits
+        process_error = set_process_priority(max(0, priority - 1)) if priority > 1 else ""
         settings = validate_parameters(self._parameter_values(), self.cfg)
         self.core = PlannerCore(self.cfg, settings.rate, defaults=settings.defaults,
                                 cmd_vel_timeout=settings.cmd_vel_timeout)
@@ -170,10 +174,12 @@ class PlannerNode(Node):
         self._publish_status()
         self._ahead_thread.start()
         self._ticker.start()
-        if self._ticker.priority_error:
-            self.get_logger().warning(self._ticker.priority_error)
+        if self._ticker.priority_error or process_error:
+            self.get_logger().warning(self._ticker.priority_error or process_error)
         elif priority:
-            self.get_logger().info(f"tick thread at SCHED_FIFO priority {priority}")
+            self.get_logger().info(f"tick thread at SCHED_FIFO priority {priority}"
+                                   + (f", the process at {priority - 1}" if priority > 1
+                                      else ""))
 
     def destroy_node(self) -> None:
         """Stop the ticker and planning threads, then destroy the node."""

@@ -57,13 +57,25 @@ AXIS_KEYS: tuple[str, ...] = ("axis", "direction", "zero_offset", "gear_ratio")
 _FAMILIES = {"target": "Target", "position": "Position", "status": "Status"}
 
 
+def _crc8_table(poly: int) -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ poly) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+        table.append(crc)
+    return tuple(table)
+
+
+_CRC8_J1850 = _crc8_table(0x1D)
+
+
 def crc8_sae_j1850(data: bytes) -> int:
     """CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, xorout 0xFF); ``b"123456789"`` gives 0x4B."""
     crc = 0xFF
+    table = _CRC8_J1850
     for byte in data:
-        crc ^= byte
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x1D) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+        crc = table[crc ^ byte]
     return crc ^ 0xFF
 
 

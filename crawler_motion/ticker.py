@@ -39,6 +39,26 @@ def check_priority(priority: int) -> int:
     return priority
 
 
+def set_process_priority(priority: int) -> str:
+    """Put every thread of this process under SCHED_FIFO at ``priority`` (1..99; Linux).
+
+    Threads created afterwards inherit it from their creator. Returns "" on success, else why
+    it could not be set (the process then runs at normal priority). Used so that a thread
+    holding the GIL (the executor) is not preempted by ordinary processes while the tick
+    thread waits for it.
+    """
+    check_priority(priority)
+    if priority == 0:
+        return ""
+    try:
+        tids = [int(t) for t in os.listdir("/proc/self/task")]
+        for tid in tids:
+            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(priority))
+    except (AttributeError, OSError) as exc:  # no permission, or not Linux
+        return f"SCHED_FIFO priority {priority} not set for the process ({exc})"
+    return ""
+
+
 def catch_up(deadline: float, now: float, period: float) -> tuple[float, int, float]:
     """Where a tick that starts at ``now`` stands on the grid ``deadline + k * period`` [s].
 

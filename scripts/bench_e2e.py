@@ -416,7 +416,8 @@ class Stack:
                        "-p", "autostart:=true", "-p", f"command_timeout:={self.command_timeout}",
                        "-p", f"diagnostics_period:={DIAGNOSTICS_PERIOD}",
                        "-p", "can_interface:=udp_multicast", "-p", f"can_channel:={group}",
-                       "-p", f"can_port:={self.port}"],
+                       "-p", f"can_port:={self.port}",
+                       "-p", f"priority:={max(0, self.tick_priority - 1)}"],
             "planner": [py, "-m", "crawler_motion.planner_node", "--ros-args",
                         "-p", f"rate:={self.rate}", "-p", f"gait:={self.gait}",
                         "-p", f"tick_priority:={self.tick_priority}"],
@@ -839,8 +840,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="measured walking time per rate [s] (default 15)")
     parser.add_argument("--gait", choices=("diagonal", "wave"), default="diagonal")
     parser.add_argument("--tick-priority", type=int, default=0,
-                        help="the planner's tick_priority (1-99: SCHED_FIFO tick thread; "
-                             "default 0: normal scheduling)")
+                        help="the planner's tick_priority (1-99: SCHED_FIFO tick thread, "
+                             "the planner and driver processes one below; default 0: normal "
+                             "scheduling)")
     args = parser.parse_args(argv)
     if not 0 <= args.tick_priority <= 99:
         parser.error(f"--tick-priority must be in [0, 99], got {args.tick_priority}")

@@ -4,6 +4,7 @@ cross-process virtual CAN bus (python-can ``udp_multicast``), driven from this t
 from __future__ import annotations
 
 import os
+import random
 import signal
 import socket
 import subprocess
@@ -80,25 +81,27 @@ class Tap:
 
 
 @pytest.fixture()
-def stack() -> Iterator[dict[str, Any]]:
+def stack(tmp_path: Path) -> Iterator[dict[str, Any]]:
     port = _free_port()
     group = UdpMulticastBus.DEFAULT_GROUP_IPv4
-    env = os.environ.copy()
+    # a ROS domain of its own (above the session's 1..101): no node left by another test of
+    # this session can talk to this stack
+    domain = random.randint(102, 200)
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
     tap = Tap(port)
-    procs = {
-        "sim": subprocess.Popen([*_exe("motor_manager_sim"), "--port",
-                                 str(port), "--speed-limit", "6.0"], env=env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
-        "driver": subprocess.Popen([*_exe("driver_node"), "--ros-args", "-p",
-                                    "autostart:=true", "-p", f"can_channel:={group}", "-p",
-                                    f"command_timeout:={DEMO_COMMAND_TIMEOUT}", "-p",
-                                    f"can_port:={port}"], env=env, stdout=subprocess.DEVNULL,
-                                   stderr=subprocess.DEVNULL),
-        "planner": subprocess.Popen([*_exe("planner_node"), "--ros-args",
-                                     "-p", "rate:=100.0"], env=env,
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
+    logs = {name: tmp_path / f"{name}.log" for name in ("sim", "driver", "planner")}
+    commands = {
+        "sim": [*_exe("motor_manager_sim"), "--port", str(port), "--speed-limit", "6.0"],
+        "driver": [*_exe("driver_node"), "--ros-args", "-p", "autostart:=true", "-p",
+                   f"can_channel:={group}", "-p", f"command_timeout:={DEMO_COMMAND_TIMEOUT}",
+                   "-p", f"can_port:={port}"],
+        "planner": [*_exe("planner_node"), "--ros-args", "-p", "rate:=100.0"],
     }
-    rclpy.init()
+    procs = {}
+    for name, cmd in commands.items():
+        with open(logs[name], "wb") as log:
+            procs[name] = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT)
+    rclpy.init(domain_id=domain)
     console = Console("e2e_console")
     console.printer = lambda _line: None
     record: dict[str, list[Any]] = {"commands": [], "states": [], "stamps": []}
@@ -114,7 +117,9 @@ def stack() -> Iterator[dict[str, Any]]:
     console.node.create_subscription(JointState, "joint_commands", on_cmd, 100)
     console.node.create_subscription(JointState, "joint_states", on_state, 100)
     try:
-        yield {"console": console, "tap": tap, "record": record, "procs": procs}
+        yield {"console": console, "tap": tap, "record": record, "procs": procs,
+               "logs": lambda: "\n".join(f"--- {n}: {p.read_text(errors='replace')[-1500:]}"
+                                         for n, p in logs.items())}
     finally:
         console.close()
         rclpy.try_shutdown()
@@ -133,15 +138,16 @@ def test_walk_end_to_end_on_a_cross_process_bus(stack: dict[str, Any]) -> None:
     console: Console = stack["console"]
     tap: Tap = stack["tap"]
     record = stack["record"]
-    assert console.connect(30.0), "planner did not come up"
-    assert console.wait_until(lambda: len(record["states"]) > 5, 30.0), "no joint_states"
+    assert console.connect(30.0), f"planner did not come up\n{stack['logs']()}"
+    assert console.wait_until(lambda: len(record["states"]) > 5, 30.0), (
+        f"no joint_states\n{stack['logs']()}")
     ok, message = console.run_when_ready({"command": "stand"}, 30.0)
-    assert ok, message
+    assert ok, f"{message}\n{stack['logs']()}"
     record["commands"].clear()
     record["stamps"].clear()
     t_walk = time.monotonic()
     ok, message = console.run_when_ready({"command": "walk", "steps": 1}, 30.0)
-    assert ok, message
+    assert ok, f"{message}\n{stack['logs']()}"
     t_end = time.monotonic()
     console.spin_for(0.6)
 
@@ -149,7 +155,7 @@ def test_walk_end_to_end_on_a_cross_process_bus(stack: dict[str, Any]) -> None:
     # arrival times here also carry this process's scheduling)
     stamps = [s for t, s in record["stamps"] if t_walk + 0.2 <= t <= t_end - 0.2]
     rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
-    assert 90.0 <= rate <= 110.0, rate
+    assert 90.0 <= rate <= 110.0, f"{rate}\n{stack['logs']()}"
     assert all(names == NAMES for _, names, _ in record["commands"])
 
     # every decoded target frame equals some planner command within the DBC's resolution
@@ -177,7 +183,8 @@ def test_walk_end_to_end_on_a_cross_process_bus(stack: dict[str, Any]) -> None:
     # measured joint_states converge to the last command; feet back at standing
     last_cmd = record["commands"][-1][2]
     measured = record["states"][-1][2]
-    assert np.abs(measured - last_cmd).max() < 0.01
+    assert np.abs(measured - last_cmd).max() < 0.01, (
+        f"{np.abs(measured - last_cmd).max()}\n{stack['logs']()}")
     feet = forward_kinematics(CFG.robot, measured.reshape(4, 3))
     np.testing.assert_allclose(feet, CFG.robot.standing_feet(), atol=1e-3)
 

@@ -375,6 +375,18 @@ def test_cycle_bits(proto):
 
 def test_crc8_check_value():
     assert crc8_sae_j1850(b"123456789") == 0x4B
+    assert crc8_sae_j1850(b"") == 0x00  # init 0xFF, xorout 0xFF
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=16))
+def test_crc8_table_equals_the_bitwise_definition(data):
+    crc = 0xFF
+    for byte in data:
+        crc ^= byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1D) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    assert crc8_sae_j1850(data) == crc ^ 0xFF
 
 
 # ---- decoding refuses what is not a valid frame ---------------------------------------------
