@@ -39,6 +39,7 @@ from std_msgs.msg import Bool, String
 from std_srvs.srv import Trigger
 
 from crawler_motion.config import joint_names, load_config
+from crawler_motion.demo import free_udp_port
 from crawler_motion.driver_node import DriverNode
 from crawler_motion.errors import ConfigError
 from crawler_motion.motor_manager_sim import MotorManagerSim
@@ -454,11 +455,6 @@ def test_invalid_start_parameters_are_refused(vrig, graph):
 # ---- cross-process: the manager as a subprocess ------------------------------------------
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("", 0))
-        return sock.getsockname()[1]
-
 
 def _vcan0_missing() -> str:
     if not hasattr(socket, "AF_CAN"):
@@ -475,7 +471,7 @@ def _vcan0_missing() -> str:
 def _bus_args(kind: str) -> tuple[list[str], dict[str, object]]:
     if kind == "udp_multicast":
         group = f"239.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
-        port = _free_udp_port()
+        port = free_udp_port()
         return (["--interface", "udp_multicast", "--channel", group, "--port", str(port)],
                 {"can_interface": "udp_multicast", "can_channel": group, "can_port": port})
     reason = _vcan0_missing()

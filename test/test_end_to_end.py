@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import random
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -26,7 +25,7 @@ from sensor_msgs.msg import JointState  # noqa: E402
 
 from crawler_motion.config import load_config  # noqa: E402
 from crawler_motion.console import Console  # noqa: E402
-from crawler_motion.demo import DEMO_COMMAND_TIMEOUT  # noqa: E402
+from crawler_motion.demo import DEMO_COMMAND_TIMEOUT, free_udp_port  # noqa: E402
 from crawler_motion.errors import ProtocolError  # noqa: E402
 from crawler_motion.kinematics import forward_kinematics  # noqa: E402
 from crawler_motion.protocol import MotorProtocol, TargetFrame  # noqa: E402
@@ -41,11 +40,6 @@ def _exe(name: str) -> list[str]:
     script = Path(sys.executable).parent / name
     return [str(script)] if script.exists() else [sys.executable, "-m", f"crawler_motion.{name}"]
 
-
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("", 0))
-        return int(s.getsockname()[1])
 
 
 class Tap:
@@ -82,7 +76,7 @@ class Tap:
 
 @pytest.fixture()
 def stack(tmp_path: Path) -> Iterator[dict[str, Any]]:
-    port = _free_port()
+    port = free_udp_port()
     group = UdpMulticastBus.DEFAULT_GROUP_IPv4
     # a ROS domain of its own (above the session's 1..101): no node left by another test of
     # this session can talk to this stack

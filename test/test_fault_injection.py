@@ -15,7 +15,6 @@ import json
 import os
 import random
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -38,6 +37,7 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from crawler_motion.config import load_config  # noqa: E402
 from crawler_motion.console import Console  # noqa: E402
+from crawler_motion.demo import free_udp_port  # noqa: E402
 from crawler_motion.errors import ProtocolError  # noqa: E402
 from crawler_motion.gait import standing_pose  # noqa: E402
 from crawler_motion.motor_manager_sim import MotorManagerSim  # noqa: E402
@@ -59,11 +59,6 @@ def _exe(name: str) -> list[str]:
     script = Path(sys.executable).parent / name
     return [str(script)] if script.exists() else [sys.executable, "-m", f"crawler_motion.{name}"]
 
-
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("", 0))
-        return int(s.getsockname()[1])
 
 
 def _to_monotonic(wall: float) -> float:
@@ -125,7 +120,7 @@ class Stack:
         tag = uuid.uuid4().hex[:8]
         self.ns = f"/fi_{tag}"
         group = f"239.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
-        port = _free_port()
+        port = free_udp_port()
         self.tap = Tap(group, port)
         self.sim_bus = can.Bus(interface="udp_multicast", channel=group, port=port,
                                receive_own_messages=False)

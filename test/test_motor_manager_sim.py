@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 import random
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -17,6 +16,7 @@ import numpy as np
 import pytest
 
 from crawler_motion.config import joint_names, load_config
+from crawler_motion.demo import free_udp_port
 from crawler_motion.errors import ProtocolError
 from crawler_motion.motor_manager_sim import MotorManagerSim, main
 from crawler_motion.protocol import (
@@ -443,11 +443,6 @@ def test_main_rejects_bad_options_in_one_line(capsys, argv, code, pattern):
 # ---- cross-process: the manager as a subprocess on udp_multicast ------------------------------
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("", 0))
-        return sock.getsockname()[1]
-
 
 def _open_variant(variant: str) -> tuple[can.BusABC, list[str]]:
     """The controller's bus and the manager's bus options of a cross-process variant."""
@@ -459,7 +454,7 @@ def _open_variant(variant: str) -> tuple[can.BusABC, list[str]]:
                         f"'ip link add dev vcan0 type vcan && ip link set up vcan0'")
         return bus, ["--interface", "socketcan", "--channel", "vcan0"]
     group = f"239.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
-    port = _free_udp_port()  # unique per test: sockets bind the port, not the group
+    port = free_udp_port()  # unique per test: sockets bind the port, not the group
     try:
         bus = can.Bus(interface="udp_multicast", channel=group, port=port,
                       receive_own_messages=False)
