@@ -95,6 +95,16 @@ class DriverError(CrawlerMotionError):
 # --------------------------------------------------------------------------------------------
 
 
+def _finite_number(value: object) -> bool:
+    """True for a finite int or float (numpy scalars too; bool, str, NaN, inf: False)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+        return False
+    try:
+        return math.isfinite(value)  # type: ignore[arg-type]
+    except OverflowError:  # an int beyond the float range
+        return False
+
+
 @dataclass(frozen=True)
 class ParamSpec:
     """One driver parameter: default, meaning, bounds; the node builds its descriptor from it."""
@@ -790,14 +800,22 @@ class DriverCore:
                                 f"joints once; duplicate {duplicate}, missing {missing}, "
                                 f"unknown {extra}")
         q = np.empty(len(self._index))
-        try:
-            for name, value in zip(names, positions, strict=True):
+        for name, value in zip(names, positions, strict=True):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+                raise ProtocolError(f"joint command positions must be numbers [rad], got "
+                                    f"{value!r:.40} for {name}")
+            try:
                 q[self._index[name]] = float(value)
-        except (TypeError, ValueError) as exc:
-            raise ProtocolError(f"joint command positions must be numbers: {exc}") from None
+            except OverflowError:
+                q[self._index[name]] = math.inf
         bad = [f"{self.protocol.joint_names[i]}={q[i]}" for i in np.flatnonzero(~np.isfinite(q))]
         if bad:
             raise ProtocolError(f"joint command has non-finite positions: {', '.join(bad)}")
+        # velocities are not sent, but a NaN or a string means a broken sender
+        for name, value in zip(names, velocities, strict=False):  # 0 or n of them
+            if not _finite_number(value):
+                raise ProtocolError(f"joint command velocities must be finite numbers [rad/s], "
+                                    f"got {value!r:.40} for {name}")
         out = [f"{self.protocol.joint_names[i]}={q[i]:.6g} not in [{self._lower[i]:g}, "
                f"{self._upper[i]:g}]" for i in np.flatnonzero((q < self._lower)
                                                                | (q > self._upper))]

@@ -238,7 +238,20 @@ def _variants():
         "above limit": (names, [*q[:-1], upper_knee + 0.01], "outside the joint limits"),
         "below limit": (names, [-0.95, *q[1:]], "outside the joint limits"),
         "not a number": (names, ["x", *q[1:]], "must be numbers"),
+        "numeric string": (names, ["0.1", *q[1:]], "must be numbers"),
+        "bool": (names, [True, *q[1:]], "must be numbers"),
+        "int beyond float": (names, [10**400, *q[1:]], "non-finite"),
     }
+
+
+@pytest.mark.parametrize("velocity", [math.nan, math.inf, "0.1", None])
+def test_a_broken_velocity_is_refused(rig, velocity):
+    """Velocities are not sent, but a NaN or a string means the sender is broken."""
+    rig.core.activate()
+    result = rig.core.submit(JOINTS, list(STAND), [velocity, *[0.0] * 11])
+    assert not result.accepted and "velocities must be finite numbers" in result.reason
+    assert "lf_root_joint" in result.reason and rig.core.counters.refused == 1
+    assert rig.core.submit(JOINTS, list(STAND), [0.0] * 12).accepted
 
 
 @pytest.mark.parametrize("variant", list(_variants()))

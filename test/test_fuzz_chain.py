@@ -439,6 +439,8 @@ def expected_valid(names: Sequence[str], positions: Sequence[Any], velocities: S
         return False
     if len(velocities) not in (0, n) or len(efforts) not in (0, n):
         return False
+    if not all(type(v) is float and math.isfinite(v) for v in velocities):
+        return False  # velocities are not sent, but must be finite numbers [rad/s]
     return all(type(q) is float and LIMITS[name][0] <= q <= LIMITS[name][1]
                for name, q in zip(names, positions, strict=True))
 
