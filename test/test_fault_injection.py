@@ -315,12 +315,21 @@ def test_planner_killed_mid_walk_trips_both_command_timeouts(make_stack: Callabl
         f"{(t_bits - t_last) * 1e3 if t_bits else float('nan'):.0f} / "
         f"{(t_hold - t_last) * 1e3:.0f} ms; timeouts {manager_timeout:g} / {watchdog:g} s)")
     assert t_last < t_hold, f"target frames after the hold: {text}"
-    assert watchdog - 0.02 <= t_hold - t_last <= watchdog + 0.25, text
+    # never early; late only by scheduling (bounded generously: the figures are in the report)
+    assert watchdog - 0.02 <= t_hold - t_last <= watchdog + 0.5, text
     assert t_bits is not None, f"the manager never reported its command timeout: {text}"
-    assert manager_timeout - 0.01 <= t_bits - t_last <= manager_timeout + 0.2, text
-    # after the hold: powered, holding (the hold replaces the timeout), positions frozen
-    after = [f for _, s in stack.tap.of("status", t_hold + 0.05) for f in s.axes.values()]
-    assert after and all(f.enabled and not f.tracking and not f.command_timeout for f in after)
+    assert manager_timeout - 0.01 <= t_bits - t_last <= manager_timeout + 0.5, text
+    # after the hold: powered, holding (the hold replaces the timeout), positions frozen; the
+    # manager runs in this (possibly busy) process: wait for its next status cycle
+    n_groups = len(PROTOCOL.frame_ids("status"))
+
+    def holding() -> bool:
+        last = stack.tap.of("status", t_hold)[-n_groups:]
+        flags = [f for _, s in last for f in s.axes.values()]
+        return len(last) == n_groups and all(
+            f.enabled and not f.tracking and not f.command_timeout for f in flags)
+
+    assert stack.wait(holding), stack.tap.of("status", t_hold)[-n_groups:]
     assert stack.sim.state == "hold"
     frozen = stack.sim.positions
     stack.spin(0.2)
@@ -548,7 +557,7 @@ def test_estop_from_gait_command_during_a_walk(make_stack: Callable[..., Stack])
     text = _report(f"e-stop gait_command -> e-stop frame on the bus {latency * 1e3:.1f} ms")
     assert command == "estop", stack.tap.controls(t0)
     assert stack.tap.of("target", t_estop) == [], f"target frames after the e-stop: {text}"
-    assert latency <= 0.25, text
+    assert latency <= 0.5, text  # measured 4-37 ms; generous for a loaded machine
     assert "ESTOP" in stack.diag()[1] and stack.diag()[0] == 2, stack.diag()
 
     # the planner alone cannot release it: after its reset it refuses to stand (paused by the
