@@ -329,8 +329,6 @@ class DriverCore:
         if (bus is None) == (bus_factory is None):
             raise ValueError("give exactly one of bus and bus_factory")
         self.protocol = protocol
-        # controller-side ids (our own echo on udp_multicast): ignored without decoding
-        self._own_ids = frozenset(protocol.frame_ids("control") + protocol.frame_ids("target"))
         self._given_bus = bus
         self._factory = bus_factory
         self._settings = settings or DriverSettings()
@@ -885,8 +883,7 @@ class DriverCore:
 
     def _handle(self, msg: can.Message, now: float) -> np.ndarray | None:
         self._n["rx"] += 1
-        if (getattr(msg, "arbitration_id", None) in self._own_ids
-                and not getattr(msg, "is_extended_id", True)):
+        if self.protocol.sender(msg) == "controller":
             self._n["rx_ignored"] += 1  # our own echo or another controller: not decoded
             return None
         try:

@@ -99,9 +99,6 @@ class MotorManagerSim:
             raise ProtocolError(f"the DBC's MM_Heartbeat.State lacks the states {missing}")
         self._bus = bus
         self._protocol = protocol
-        # manager-side ids (our own echo on udp_multicast): ignored without decoding
-        self._own_ids = frozenset(protocol.frame_ids("position") + protocol.frame_ids("status")
-                                  + protocol.frame_ids("heartbeat"))
         self._clock = clock
         n = protocol.n_axes
         speed = np.asarray(speed_limit, dtype=float).reshape(-1)
@@ -258,8 +255,7 @@ class MotorManagerSim:
         """Process one received frame at the current simulated time; never raises for data."""
         with self._lock:
             self._count(received=1)
-            if (getattr(msg, "arbitration_id", None) in self._own_ids
-                    and not getattr(msg, "is_extended_id", True)):
+            if self._protocol.sender(msg) == "manager":
                 self._count(ignored=1)  # our own echo or another manager: not decoded
                 return
             try:

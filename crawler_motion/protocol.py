@@ -55,6 +55,8 @@ FLAG_SIGNALS: dict[str, str] = {
 AXIS_KEYS: tuple[str, ...] = ("axis", "direction", "zero_offset", "gear_ratio")
 
 _FAMILIES = {"target": "Target", "position": "Position", "status": "Status"}
+#: Frame families the controller (the driver) sends; the manager sends the others.
+CONTROLLER_KINDS = frozenset({"control", "target"})
 
 
 def _crc8_table(poly: int) -> tuple[int, ...]:
@@ -541,6 +543,17 @@ class MotorProtocol:
             raise ProtocolError(f"unknown frame family {kind!r}; expected target, position, "
                                 f"status or heartbeat")
         return cycle / 1000.0 if cycle else None
+
+    def sender(self, msg: Any) -> str | None:
+        """Which side sends the (standard 11-bit) id of ``msg``: ``"controller"`` (control and
+        target frames), ``"manager"`` (feedback), or None (unknown or extended id, not a
+        frame). Lets each side skip its own frames, looped back on udp_multicast, undecoded."""
+        if getattr(msg, "is_extended_id", True):
+            return None
+        frame = self._frames.get(getattr(msg, "arbitration_id", None))
+        if frame is None:
+            return None
+        return "controller" if frame.kind in CONTROLLER_KINDS else "manager"
 
     def frame_ids(self, kind: str) -> tuple[int, ...]:
         """Arbitration ids of a frame family (``control``, ``target``, ``position``, ...)."""

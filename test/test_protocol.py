@@ -584,3 +584,16 @@ def test_regrouped_dbc_needs_no_code_change(robot, tmp_path):
 def test_missing_dbc_raises(robot, tmp_path):
     with pytest.raises(ProtocolError, match="cannot read DBC file"):
         build(robot, config_path("axes.yaml"), tmp_path / "none.dbc")
+
+
+def test_sender_of_each_family(proto):
+    """Each side skips its own (looped-back) frames by id, without decoding them."""
+    q = mid_pose(proto)
+    rows = [(proto.encode_control("enable"), "controller"),
+            (proto.encode_targets(q, 1)[0], "controller"),
+            (proto.encode_feedback(proto.to_axis(q), 1)[0], "manager"),
+            (can.Message(arbitration_id=0x7FF, is_extended_id=False), None),  # unknown id
+            (can.Message(arbitration_id=0x100, is_extended_id=True), None),  # extended
+            ("not a frame", None)]
+    for msg, side in rows:
+        assert proto.sender(msg) == side, msg
