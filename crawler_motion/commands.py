@@ -90,16 +90,24 @@ def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def finite_float(value: Any) -> float | None:
-    """``value`` as a finite float if it is an int or float (not bool) that is one; else None
-    (NaN, inf, an int beyond the float range, anything else)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+def as_float(value: Any) -> float | None:
+    """``value`` as a float if it is a real number (int, float, numpy scalar; not bool), an
+    int beyond the float range as +-inf; None for anything else (str, None, ...)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
         return None
     try:
-        number = float(value)
+        return float(value)
     except OverflowError:  # an int of more than ~308 digits
+        return math.inf if value > 0 else -math.inf
+
+
+def finite_float(value: Any) -> float | None:
+    """``value`` as a finite float if it is a Python int or float (not bool) that is one; else
+    None (NaN, inf, an int beyond the float range, anything else)."""
+    if not isinstance(value, (int, float)):
         return None
-    return number if math.isfinite(number) else None
+    number = as_float(value)
+    return number if number is not None and math.isfinite(number) else None
 
 
 def _number(value: Any, name: str, lo: float, hi: float, unit: str) -> float:

@@ -55,6 +55,7 @@ import can
 import numpy as np
 from can.interfaces.udp_multicast import UdpMulticastBus
 
+from crawler_motion.commands import as_float
 from crawler_motion.errors import CrawlerMotionError, ProtocolError
 from crawler_motion.protocol import (
     AxisFlags,
@@ -93,16 +94,6 @@ class DriverError(CrawlerMotionError):
 # --------------------------------------------------------------------------------------------
 # Parameters (one table for the node's descriptors and the validator)
 # --------------------------------------------------------------------------------------------
-
-
-def _finite_number(value: object) -> bool:
-    """True for a finite int or float (numpy scalars too; bool, str, NaN, inf: False)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
-        return False
-    try:
-        return math.isfinite(value)  # type: ignore[arg-type]
-    except OverflowError:  # an int beyond the float range
-        return False
 
 
 @dataclass(frozen=True)
@@ -799,19 +790,18 @@ class DriverCore:
                                 f"unknown {extra}")
         q = np.empty(len(self._index))
         for name, value in zip(names, positions, strict=True):
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+            number = as_float(value)
+            if number is None:
                 raise ProtocolError(f"joint command positions must be numbers [rad], got "
                                     f"{value!r:.40} for {name}")
-            try:
-                q[self._index[name]] = float(value)
-            except OverflowError:
-                q[self._index[name]] = math.inf
+            q[self._index[name]] = number
         bad = [f"{self.protocol.joint_names[i]}={q[i]}" for i in np.flatnonzero(~np.isfinite(q))]
         if bad:
             raise ProtocolError(f"joint command has non-finite positions: {', '.join(bad)}")
         # velocities are not sent, but a NaN or a string means a broken sender
         for name, value in zip(names, velocities, strict=False):  # 0 or n of them
-            if not _finite_number(value):
+            number = as_float(value)
+            if number is None or not math.isfinite(number):
                 raise ProtocolError(f"joint command velocities must be finite numbers [rad/s], "
                                     f"got {value!r:.40} for {name}")
         out = [f"{self.protocol.joint_names[i]}={q[i]:.6g} not in [{self._lower[i]:g}, "
