@@ -172,7 +172,6 @@ class _Track:
         return self._out
 
 
-
 @dataclass(frozen=True)
 class _Ahead:
     """The next slot planned ahead of its boundary, with the inputs it was planned from."""
@@ -222,6 +221,7 @@ class AheadJob:
         slot, seq, error = _plan_next(self.robot, self.seq, self.pending, self.stopping)
         track = _Track(slot.legs) if slot is not None and error is None else None
         return _Ahead(self.after, self.pending, self.stopping, slot, seq, error, track)
+
 
 def sitting_pose(cfg: Config) -> np.ndarray:
     """Sitting joint angles ``(n_legs, 3)`` [rad]: body at the minimum height, legs tucked.

@@ -11,11 +11,10 @@ transient local) on every change and at least once a second.
 
 Joint commands are published from a `ticker.Ticker` thread on the steady clock, not from an
 rclpy timer: the executor also runs every callback, and a busy executor delays or skips timer
-ticks. After each tick it wakes a second, normal-priority thread that plans the next gait slot
-ahead of its boundary (`PlannerCore.ahead_job`, computed without the lock), so no tick waits
-for planning. Ticks skipped because the process
-was starved are counted (``missed_ticks`` in the status; a message is logged).
-
+ticks. After each tick it wakes a second thread that plans the next gait slot ahead of its
+boundary (`PlannerCore.ahead_job`, computed without the lock), so no tick waits for planning.
+Ticks skipped because the process was starved are counted (``missed_ticks`` in the status; a
+message is logged).
 
 Parameters are validated by `commands.validate_parameters`, at start-up and on every change
 (refused with the reason). ``config_file`` is read-only; a new ``rate`` changes the period of
@@ -156,7 +155,7 @@ class PlannerNode(Node):
                                  qos_profile_sensor_data)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._plan_ahead,
+        self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._wake_planning,
                               name="planner-ticker", priority=priority)
         self._missed_logged = 0
         self._ahead_now = 0.0
@@ -296,13 +295,13 @@ class PlannerNode(Node):
             if self.context.ok():
                 self._log("error", f"tick failed: {type(exc).__name__}: {exc}")
 
-    def _plan_ahead(self, now: float) -> None:
+    def _wake_planning(self, now: float) -> None:
         """Ticker thread, right after a tick: wake the planning thread (costs nothing)."""
         self._ahead_now = now
         self._ahead_wake.set()
 
     def _ahead_loop(self) -> None:
-        """Planning thread (normal priority): plans the next slot before its boundary without
+        """Planning thread: plans the next slot before its boundary without
         holding the core's lock while it computes, so the ticks go on meanwhile."""
         while True:
             self._ahead_wake.wait()

@@ -10,8 +10,8 @@ until absolute deadlines ``t0 + k * period`` on ``time.monotonic`` and never dri
 - a tick one or more whole periods late skips the missed deadlines (they are counted in
   ``missed``, never run in a burst: a late joint command is worse than none).
 
-``idle`` (optional) runs right after a tick, in the same thread: work that must not delay a
-tick (planning the next gait slot ahead of its boundary) goes there.
+``idle`` (optional) runs right after a tick, in the same thread, so it delays the next tick
+by its own duration: keep it short (the planner only wakes its planning thread there).
 
 ``priority`` 1..99 runs the thread under SCHED_FIFO (Linux; needs CAP_SYS_NICE or an rtprio
 limit), as real-time controllers do: the thread then preempts ordinary processes when its
@@ -52,10 +52,21 @@ def set_process_priority(priority: int) -> str:
         return ""
     try:
         tids = [int(t) for t in os.listdir("/proc/self/task")]
-        for tid in tids:
-            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(priority))
-    except (AttributeError, OSError) as exc:  # no permission, or not Linux
+    except OSError as exc:  # not Linux
         return f"SCHED_FIFO priority {priority} not set for the process ({exc})"
+    for tid in tids:
+        problem = _set_fifo(tid, priority)
+        if problem:
+            return f"{problem} for the process"
+    return ""
+
+
+def _set_fifo(tid: int, priority: int) -> str:
+    """SCHED_FIFO at ``priority`` for thread ``tid`` (0: the calling thread); "" or why not."""
+    try:
+        os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(priority))
+    except (AttributeError, OSError) as exc:  # no permission, or not Linux
+        return f"SCHED_FIFO priority {priority} not set ({exc})"
     return ""
 
 
@@ -143,11 +154,9 @@ class Ticker:
 
     def _run(self) -> None:
         if self._priority > 0:
-            try:  # pid 0: this thread (Linux)
-                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self._priority))
-            except (AttributeError, OSError) as exc:  # no permission, or not Linux
-                self.priority_error = (f"SCHED_FIFO priority {self._priority} not set "
-                                       f"({exc}); ticking at normal priority")
+            problem = _set_fifo(0, self._priority)
+            if problem:
+                self.priority_error = f"{problem}; ticking at normal priority"
         self._started.set()
         with self._lock:
             period = self._period
