@@ -63,7 +63,13 @@ class BusTap:
             except Exception:
                 continue
             if msg is not None:
-                self.counts[self.families.get(msg.arbitration_id, "other")] += 1
+                kind = self.families.get(msg.arbitration_id, "other")
+                self.counts[kind] += 1
+                self.on_frame(msg, kind)
+
+    def on_frame(self, msg: Any, kind: str) -> None:
+        """Called in the listener thread for every frame, after counting it; a hook for
+        subclasses (``kind``: control, target, position, status, heartbeat or other)."""
 
     def stop(self) -> None:
         """Stop listening and close the bus."""

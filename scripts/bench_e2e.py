@@ -157,18 +157,9 @@ class GroupTap(BusTap):
         self._row: np.ndarray | None = None
         self._ids: set[int] = set()
 
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                msg = self.bus.recv(timeout=0.1)
-            except Exception:
-                continue
-            if msg is None:
-                continue
-            kind = self.families.get(msg.arbitration_id, "other")
-            self.counts[kind] += 1
-            if kind == "target":
-                self._target(msg)
+    def on_frame(self, msg: Any, kind: str) -> None:
+        if kind == "target":
+            self._target(msg)
 
     def _target(self, msg: Any) -> None:
         from crawler_motion.protocol import TargetFrame
