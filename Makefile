@@ -16,23 +16,23 @@ demo: $(STAMP)
 	$(VENV)/bin/crawler-motion demo
 
 test: $(STAMP)
-	$(PY) -m ruff check crawler_motion test scripts
+	$(PY) -m ruff check crawler_motion test
 	$(PY) -m pytest -q
 
 fuzz: $(STAMP)
-	FUZZ_EXAMPLES=10000 $(PY) -m pytest -q -s test/test_fuzz_chain.py test/test_commands.py -k fuzz
+	FUZZ_EXAMPLES=10000 $(PY) -m pytest -q -s test/system/test_fuzz_chain.py test/planner/test_commands.py -k fuzz
 
 lint: $(STAMP)
-	$(PY) -m ruff check crawler_motion test scripts
+	$(PY) -m ruff check crawler_motion test
 
 bench: $(STAMP)
-	$(PY) scripts/bench.py
-	$(PY) scripts/smoothness_report.py --out plots
-	$(PY) scripts/bench.py --e2e
+	$(PY) -m crawler_motion.tools.bench
+	$(PY) -m crawler_motion.tools.smoothness --out plots
+	$(PY) -m crawler_motion.tools.bench --e2e
 
 # The whole stack walking for 10 minutes on the cross-process bus; exit 1 if anything was lost.
 soak: $(STAMP)
-	$(PY) scripts/soak.py --rate 200 --duration 600
+	$(PY) -m crawler_motion.tools.soak --rate 200 --duration 600
 
 plots: $(STAMP)
 	$(VENV)/bin/crawler-motion plot --out plots

@@ -35,10 +35,10 @@ setup(
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [
-            "crawler-motion = crawler_motion.cli:main",
-            "planner_node = crawler_motion.planner_node:main",
-            "motor_manager_sim = crawler_motion.motor_manager_sim:main",
-            "driver_node = crawler_motion.driver_node:main",
+            "crawler-motion = crawler_motion.tools.cli:main",
+            "planner_node = crawler_motion.planner.node:main",
+            "motor_manager_sim = crawler_motion.sim.motor_manager:main",
+            "driver_node = crawler_motion.driver.node:main",
         ],
     },
 )

@@ -1,7 +1,7 @@
-"""crawler_motion: motion controller of a four-legged underwater crawling robot.
+"""crawler_motion: motion controller of a four-legged underwater crawling robot on CAN motors.
 
-The pure core (`config`, `kinematics`, `trajectory`, `gait`, `urdf`, `protocol`) imports
-numpy, PyYAML and cantools only; the ROS 2 nodes live in `*_node.py` modules.
+The pure core (`model`, `motion`, `canbus`, and the cores of `planner`, `driver`, `sim`) imports
+numpy, PyYAML, python-can and cantools only; the ROS 2 nodes live in `*/node.py` modules.
 """
 
 __version__ = "0.1.0"

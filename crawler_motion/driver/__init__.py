@@ -1,0 +1,1 @@
+"""The CAN driver: bus link, command gate, watchdog, feedback, diagnostics, ROS node."""

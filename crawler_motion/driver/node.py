@@ -1,0 +1,430 @@
+"""The driver node: joint commands in, CAN frames to the motor manager out, feedback back.
+
+A `rclpy.lifecycle.LifecycleNode` around `crawler_motion.driver.core.DriverCore` (all bus
+handling, the watchdog, the e-stop latch and the feedback bookkeeping live there; this file only
+converts messages).
+
+Lifecycle: ``configure`` loads robot.yaml, the DBC and the axis map, checks them against the 12
+joint names and opens the bus (a failure is logged and leaves nothing open); ``activate`` sends
+``enable`` and starts forwarding ``joint_commands``; ``deactivate`` sends ``on_deactivate`` and
+stops forwarding; ``cleanup`` / ``shutdown`` close the bus. Nothing is sent before activation but
+an e-stop. ``joint_states`` and ``/diagnostics`` are published whenever the bus is open (also
+while inactive, so the measured pose is known before the motors are enabled).
+
+Topics: sub ``joint_commands`` (sensor_msgs/JointState, depth 1, best effort: only the newest
+command matters), ``estop`` (std_msgs/Bool, true latches), ``planner_status`` (std_msgs/String
+JSON; ``"state": "ESTOP"`` latches); pub ``joint_states`` (sensor_msgs/JointState, measured,
+joint order, stamped on reception of a complete position cycle), ``/diagnostics``.
+Services: ``~/enable``, ``~/estop``, ``~/reset`` (std_srvs/Trigger) and the lifecycle services.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Callable
+from typing import Any
+
+import can
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from lifecycle_msgs.srv import ChangeState
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy._rclpy_pybind11 import RCLError
+from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool, String
+from std_srvs.srv import Trigger
+
+from crawler_motion.canbus.protocol import MotorProtocol
+from crawler_motion.driver.core import (
+    ERROR,
+    FILE_PARAMETERS,
+    PARAMETER_SPECS,
+    PARAMETERS,
+    WARN,
+    DriverCore,
+    DriverSettings,
+    StatusEntry,
+    default_files,
+    make_bus_factory,
+    validate_parameter,
+    validate_parameters,
+)
+from crawler_motion.errors import ConfigError, CrawlerMotionError, ProtocolError
+from crawler_motion.model.config import load_config
+from crawler_motion.runtime.ticker import set_process_priority
+
+NODE_NAME = "driver"
+HARDWARE_ID = "motor_manager"
+N_JOINTS = 12
+COMMAND_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+#: Period of the check for changed diagnostic levels, published at once when one changed [s].
+LEVEL_WATCH_PERIOD = 0.05
+
+
+def _descriptor(name: str) -> ParameterDescriptor:
+    spec = PARAMETER_SPECS[name]
+    descriptor = ParameterDescriptor(name=name, description=spec.description,
+                                     read_only=spec.read_only)
+    if spec.choices:
+        descriptor.additional_constraints = f"one of {list(spec.choices)}"
+    if spec.minimum is not None and spec.maximum is not None:
+        if isinstance(spec.default, float):
+            descriptor.floating_point_range = [FloatingPointRange(
+                from_value=float(spec.minimum), to_value=float(spec.maximum), step=0.0)]
+        else:
+            descriptor.integer_range = [IntegerRange(
+                from_value=int(spec.minimum), to_value=int(spec.maximum), step=1)]
+    return descriptor
+
+
+class DriverNode(LifecycleNode):
+    """The lifecycle driver node; ``bus_factory`` replaces the bus the parameters describe."""
+
+    def __init__(self, node_name: str = NODE_NAME, *,
+                 bus_factory: Callable[[], can.BusABC] | None = None, **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self._guard_change_state()
+        self._bus_factory = bus_factory
+        files = default_files()
+        for spec in PARAMETERS:
+            default = files[spec.name] if spec.name in FILE_PARAMETERS else spec.default
+            self.declare_parameter(spec.name, default, _descriptor(spec.name))
+        reasons = validate_parameters(self._values())
+        if reasons:
+            raise ConfigError(f"invalid driver parameters: {'; '.join(reasons)}")
+        priority = self._value("priority")
+        if priority:  # every thread of the process, and those created later, inherit it
+            problem = set_process_priority(priority)
+            if problem:
+                self.get_logger().warning(f"{problem}; running at normal priority")
+            else:
+                self.get_logger().info(f"process at SCHED_FIFO priority {priority}")
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._after_set_parameters)
+
+        self._core: DriverCore | None = None
+        self._joint_names: tuple[str, ...] = ()
+        self._latched = ""  # ESTOP latched while no core exists (kept across cleanup)
+        self._dropped_unconfigured = 0
+        self._configure_error = ""
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+
+        self._joint_state_pub = self.create_publisher(JointState, "joint_states", 10)
+        self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_subscription(JointState, "joint_commands", self._on_joint_commands,
+                                 COMMAND_QOS)
+        self.create_subscription(Bool, "estop", self._on_estop_topic, 10)
+        self.create_subscription(String, "planner_status", self._on_planner_status, 10)
+        self.create_service(Trigger, "~/enable", self._on_enable)
+        self.create_service(Trigger, "~/estop", self._on_estop_service)
+        self.create_service(Trigger, "~/reset", self._on_reset)
+        self._diagnostics_timer = self.create_timer(
+            self._value("diagnostics_period"), self._publish_diagnostics, clock=self._steady)
+        # a change of any level is published at once, not at the next period: the planner
+        # pauses on ERROR, and a fault must not wait up to diagnostics_period to reach it
+        self._published_levels: tuple[tuple[str, int], ...] = ()
+        self.create_timer(LEVEL_WATCH_PERIOD, self._watch_levels, clock=self._steady)
+
+        if self._value("autostart"):
+            if self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
+                self.trigger_activate()
+
+    # ---- parameters ------------------------------------------------------------------------
+
+    def _value(self, name: str) -> Any:
+        return self.get_parameter(name).value
+
+    def _values(self) -> dict[str, Any]:
+        return {spec.name: self._value(spec.name) for spec in PARAMETERS}
+
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        reasons = [reason for p in parameters if p.name in PARAMETER_SPECS
+                   and (reason := validate_parameter(p.name, p.value)) is not None]
+        return SetParametersResult(successful=not reasons, reason="; ".join(reasons))
+
+    def _after_set_parameters(self, parameters: list[Parameter]) -> None:
+        names = {p.name for p in parameters}
+        if self._core is not None:
+            self._core.update_settings(DriverSettings.from_parameters(self._values()))
+        if "diagnostics_period" in names:
+            self.destroy_timer(self._diagnostics_timer)
+            self._diagnostics_timer = self.create_timer(
+                self._value("diagnostics_period"), self._publish_diagnostics,
+                clock=self._steady)
+
+    # ---- lifecycle -------------------------------------------------------------------------
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Load the protocol, check it against the joints, open the bus."""
+        values = self._values()
+        core = None
+        try:
+            config = load_config(values["config_file"])
+            joints = config.robot.joint_names
+            if len(joints) != N_JOINTS:
+                raise ConfigError(f"{values['config_file']} gives {len(joints)} joints; the "
+                                  f"motor manager drives {N_JOINTS}")
+            protocol = MotorProtocol.from_config(config.robot, values["dbc_file"],
+                                                 values["axes_file"])
+            if protocol.joint_names != joints or protocol.n_axes != N_JOINTS:
+                raise ProtocolError(f"the protocol drives {list(protocol.joint_names)}, the "
+                                    f"robot has {list(joints)}")
+            factory = self._bus_factory or make_bus_factory(
+                values["can_interface"], values["can_channel"], values["can_port"],
+                values["bitrate"])
+            core = DriverCore(protocol, bus_factory=factory,
+                              settings=DriverSettings.from_parameters(values),
+                              on_feedback=self._publish_joint_state, logger=self.get_logger())
+            core.open()
+        except (CrawlerMotionError, ValueError, OSError) as exc:
+            if core is not None:
+                core.close()
+            self._configure_error = f"configure failed: {exc}"
+            self.get_logger().error(self._configure_error)
+            return TransitionCallbackReturn.FAILURE
+        self._configure_error = ""
+        self._joint_names = joints
+        self._core = core
+        core.start()
+        if self._latched:
+            core.estop(self._latched)
+        where = "injected bus" if self._bus_factory else (
+            f"{values['can_interface']} {values['can_channel']}")
+        self.get_logger().info(f"configured: {len(joints)} joints on {where}")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Send ``enable`` and start forwarding joint_commands."""
+        if self._core is None:
+            return TransitionCallbackReturn.FAILURE
+        ok, message = self._core.activate()
+        if not ok:
+            self.get_logger().error(f"activate refused: {message}")
+            return TransitionCallbackReturn.FAILURE
+        self.get_logger().info(f"active: {message}")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Send ``on_deactivate`` (hold or disable) and stop forwarding."""
+        if self._core is not None:
+            self.get_logger().info(f"inactive: {self._core.deactivate()}")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Close the bus (an ESTOP latch survives)."""
+        self._close_core()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Deactivate if active, then close the bus."""
+        self._close_core()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Close the bus and go back to unconfigured."""
+        self._close_core()
+        return TransitionCallbackReturn.SUCCESS
+
+    def _close_core(self) -> None:
+        core, self._core = self._core, None
+        if core is None:
+            return
+        if core.active:
+            core.deactivate()
+        if core.estop_latched:
+            self._latched = core.estop_reason
+        core.close()
+
+    def destroy_node(self) -> None:
+        """Close the bus (deactivating first), then destroy the node."""
+        self._close_core()
+        super().destroy_node()
+
+    def _guard_change_state(self) -> None:
+        """Answer an invalid ``change_state`` request with success=False instead of crashing.
+
+        rclpy Jazzy raises RCLError from the change_state service for a transition that is not
+        valid in the current state, which ends ``rclpy.spin`` and with it this process
+        (ros2/rclpy#1209, fixed upstream by ros2/rclpy#1319). No-op if the service is absent.
+        """
+        service = getattr(self, "_service_change_state", None)
+        if service is None:
+            return
+        handler = service.callback
+
+        def guarded(request: ChangeState.Request,
+                    response: ChangeState.Response) -> ChangeState.Response:
+            try:
+                return handler(request, response)
+            except RCLError as exc:
+                self.get_logger().error(f"change_state refused (transition "
+                                        f"{request.transition.id} "
+                                        f"{request.transition.label!r}): {exc}")
+                response.success = False
+                return response
+
+        service.callback = guarded
+
+    def _lifecycle_label(self) -> str:
+        machine = getattr(self, "_state_machine", None)
+        try:
+            return str(machine.current_state[1])
+        except Exception:
+            return "unknown"
+
+    # ---- commands and safety ---------------------------------------------------------------
+
+    def _on_joint_commands(self, msg: JointState) -> None:
+        core = self._core
+        if core is None:
+            self._dropped_unconfigured += 1
+            return
+        result = core.submit(msg.name, msg.position, msg.velocity, msg.effort)
+        if not result.accepted and core.active:
+            self.get_logger().warning(f"joint_commands refused: {result.reason}",
+                                      throttle_duration_sec=1.0)
+
+    def _latch(self, reason: str) -> bool:
+        """Latch ESTOP now; True when the e-stop frame went out within this call."""
+        core = self._core
+        if core is None:
+            if not self._latched:
+                self.get_logger().error(f"ESTOP latched (no bus open): {reason}")
+            self._latched = reason
+            return False
+        return core.estop(reason)
+
+    def _on_estop_topic(self, msg: Bool) -> None:
+        if msg.data:
+            self._latch("estop topic")
+
+    def _on_planner_status(self, msg: String) -> None:
+        try:
+            state = json.loads(msg.data).get("state")
+        except (ValueError, AttributeError):
+            self.get_logger().warning("planner_status is not a JSON object with 'state'",
+                                      throttle_duration_sec=5.0)
+            return
+        if isinstance(state, str) and state.upper() == "ESTOP":
+            latched = self._core.estop_latched if self._core else bool(self._latched)
+            if not latched:
+                self._latch("planner reported ESTOP")
+
+    def _on_estop_service(self, request: Trigger.Request,
+                          response: Trigger.Response) -> Trigger.Response:
+        sent = self._latch("~/estop service")
+        response.success = True
+        response.message = "ESTOP latched; " + (
+            "e-stop frame sent" if sent else "e-stop frame queued (bus not open or down)")
+        return response
+
+    def _on_reset(self, request: Trigger.Request,
+                  response: Trigger.Response) -> Trigger.Response:
+        self._latched = ""
+        if self._core is None:
+            response.success, response.message = True, "latch cleared (not configured)"
+        else:
+            response.success, response.message = self._core.reset()
+        self.get_logger().info(f"~/reset: {response.message}")
+        return response
+
+    def _on_enable(self, request: Trigger.Request,
+                   response: Trigger.Response) -> Trigger.Response:
+        if self._core is None:
+            response.success, response.message = False, "not configured"
+        else:
+            response.success, response.message = self._core.enable()
+        self.get_logger().info(f"~/enable: {response.message}")
+        return response
+
+    # ---- publishing ------------------------------------------------------------------------
+
+    def _publish_joint_state(self, positions: np.ndarray) -> None:
+        """Publish one measured joint state (called from the core's receive thread)."""
+        if not self.context.ok():  # shutting down (Ctrl-C): the bus closes right after
+            return
+        msg = JointState()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.name = list(self._joint_names)
+        msg.position = positions.tolist()
+        try:
+            self._joint_state_pub.publish(msg)
+        except RCLError:
+            if self.context.ok():
+                raise
+
+    def _watch_levels(self) -> None:
+        core = self._core
+        if core is None:
+            return
+        entries = core.status()
+        if tuple((e.name, e.level) for e in entries) != self._published_levels:
+            self._publish_diagnostics(entries)
+
+    def _publish_diagnostics(self, entries: list[StatusEntry] | None = None) -> None:
+        core = self._core
+        label = self._lifecycle_label()
+        if core is None:
+            message = f"{label}: not configured"
+            level = WARN
+            if self._configure_error:
+                level, message = ERROR, f"{message}; {self._configure_error}"
+            if self._latched:
+                level, message = ERROR, f"{message}; ESTOP latched ({self._latched})"
+            entries = [StatusEntry("motor manager", level, message,
+                                   (("estop_latched", str(bool(self._latched))),
+                                    ("dropped_unconfigured",
+                                     str(self._dropped_unconfigured))))]
+        elif entries is None:
+            entries = core.status()
+        self._published_levels = tuple((e.name, e.level) for e in entries)
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        for entry in entries:
+            values = [KeyValue(key="lifecycle_state", value=label)] if (
+                entry.name == "motor manager") else []
+            values.extend(KeyValue(key=k, value=v) for k, v in entry.values)
+            array.status.append(DiagnosticStatus(
+                level=bytes([entry.level]), name=f"{self.get_name()}: {entry.name}",
+                message=entry.message, hardware_id=HARDWARE_ID, values=values))
+        self._diagnostics_pub.publish(array)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the driver node until Ctrl-C / shutdown (``driver_node --ros-args -p ...``)."""
+    # the CAN thread and the executor share the GIL: hand it over within 0.5 ms, not 5 ms
+    sys.setswitchinterval(0.0005)
+    rclpy.init(args=args)
+    node = None
+    failed = ""
+    try:
+        node = DriverNode()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except (CrawlerMotionError, ParameterException) as exc:  # invalid parameters at start-up
+        failed = f"driver_node: error: {exc}"
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    if failed:
+        print(failed, file=sys.stderr)
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""The robot's description: configuration, reference kinematics and URDF."""

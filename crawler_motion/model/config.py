@@ -1,0 +1,319 @@
+"""Robot and gait configuration, loaded from YAML and validated once.
+
+Arrays are shaped ``(4, 3)`` with one row per leg in ``legs`` order (lf, lb, rb, rf); columns
+are x, y, z for positions [m] and root, shoulder, knee for joints [rad].
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from crawler_motion.errors import ConfigError
+
+PACKAGE = "crawler_motion"
+JOINT_KINDS: tuple[str, ...] = ("root", "shoulder", "knee")
+DEFAULT_LEGS: tuple[str, ...] = ("lf", "lb", "rb", "rf")
+
+
+def config_dir() -> Path:
+    """Directory holding the shipped configuration files.
+
+    Looks in the source tree first (editable installs, tests), then the ament share directory,
+    then ``<prefix>/share/crawler_motion/config`` of a plain pip install.
+    """
+    here = Path(__file__).resolve().parents[2] / "config"
+    if (here / "robot.yaml").is_file():
+        return here
+    try:  # pragma: no cover - depends on the ROS workspace
+        from ament_index_python.packages import get_package_share_directory
+
+        share = Path(get_package_share_directory(PACKAGE)) / "config"
+        if (share / "robot.yaml").is_file():
+            return share
+    except Exception:
+        pass
+    share = Path(sys.prefix) / "share" / PACKAGE / "config"
+    if (share / "robot.yaml").is_file():
+        return share
+    raise ConfigError(f"cannot find the {PACKAGE} config directory (looked in {here}, {share})")
+
+
+def config_path(name: str) -> Path:
+    """Path of a shipped configuration file, e.g. ``config_path("robot.yaml")``."""
+    return config_dir() / name
+
+
+def joint_names(legs: tuple[str, ...] = DEFAULT_LEGS) -> tuple[str, ...]:
+    """The 12 joint names in array order: ``lf_root_joint, lf_shoulder_joint, ...``."""
+    return tuple(f"{leg}_{kind}_joint" for leg in legs for kind in JOINT_KINDS)
+
+
+def _number(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{what} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ConfigError(f"{what} must be finite, got {value!r}")
+    return float(value)
+
+
+def _positive(value: Any, what: str) -> float:
+    number = _number(value, what)
+    if number <= 0.0:
+        raise ConfigError(f"{what} must be > 0, got {number}")
+    return number
+
+
+def _section(data: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any]:
+    value = data.get(key)
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{where}: missing section '{key}' (a mapping)")
+    return value
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """Leg geometry and joint limits; see ``config/robot.yaml`` for conventions."""
+
+    legs: tuple[str, ...]
+    hips: np.ndarray  # (4, 3) root-axis positions in base_link [m]
+    neutral_yaw: np.ndarray  # (4,) [rad]
+    knee_sign: np.ndarray  # (4,) +1 knee up, -1 knee down
+    l1: float
+    l2: float
+    l3: float
+    lower: np.ndarray  # (3,) root, shoulder, knee [rad]
+    upper: np.ndarray  # (3,) [rad]
+    velocity: np.ndarray  # (3,) [rad/s]
+    effort: np.ndarray  # (3,) [N m]
+    reach: float  # standing foot: horizontal distance from the root axis [m]
+    body_height: float  # standing hip height above the ground [m]
+    body_height_range: tuple[float, float]
+    name: str = "crawler"
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """The 12 joint names in array order."""
+        return joint_names(self.legs)
+
+    @property
+    def n_legs(self) -> int:
+        """Number of legs."""
+        return len(self.legs)
+
+    def lower_limits(self) -> np.ndarray:
+        """Lower position limits as a ``(n_legs, 3)`` array [rad]."""
+        return np.broadcast_to(self.lower, (self.n_legs, 3))
+
+    def upper_limits(self) -> np.ndarray:
+        """Upper position limits as a ``(n_legs, 3)`` array [rad]."""
+        return np.broadcast_to(self.upper, (self.n_legs, 3))
+
+    def standing_feet(self, body_height: float | None = None) -> np.ndarray:
+        """Standing foot positions in base_link, ``(n_legs, 3)`` [m]."""
+        height = self.body_height if body_height is None else float(body_height)
+        lo, hi = self.body_height_range
+        if not (math.isfinite(height) and lo <= height <= hi):
+            raise ConfigError(f"body height {height} m is outside the allowed [{lo}, {hi}] m")
+        feet = self.hips.copy()
+        feet[:, 0] += self.reach * np.cos(self.neutral_yaw)
+        feet[:, 1] += self.reach * np.sin(self.neutral_yaw)
+        feet[:, 2] = self.hips[:, 2] - height
+        return feet
+
+
+@dataclass(frozen=True)
+class ProfileConfig:
+    """Time split of the swing and junction velocity ratios of one profile."""
+
+    lift: float
+    arc: float
+    lower: float
+    v_b: float
+    v_d: float
+
+
+@dataclass(frozen=True)
+class GaitConfig:
+    """Gait defaults, ranges, phase tables and profiles."""
+
+    gait: str
+    profile: str
+    stride: float
+    lift: float
+    arc: float
+    swing_time: float
+    stance_time: float
+    max_stride: float
+    max_turn: float
+    max_clearance: float
+    swing_time_range: tuple[float, float]
+    gaits: dict[str, tuple[tuple[str, ...], ...]] = field(default_factory=dict)
+    profiles: dict[str, ProfileConfig] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Config:
+    """Everything in ``robot.yaml``."""
+
+    robot: RobotConfig
+    gait: GaitConfig
+    source: str = "<memory>"
+
+
+def _per_leg(section: Mapping[str, Any], legs: tuple[str, ...], what: str) -> list[Any]:
+    missing = [leg for leg in legs if leg not in section]
+    extra = [key for key in section if key not in legs]
+    if missing or extra:
+        raise ConfigError(f"{what}: expected exactly the legs {list(legs)}, "
+                          f"missing {missing}, unknown {extra}")
+    return [section[leg] for leg in legs]
+
+
+def parse_robot(data: Mapping[str, Any], where: str = "robot") -> RobotConfig:
+    """Validate the ``robot`` section of the YAML and build a `RobotConfig`."""
+    legs_raw = data.get("legs", list(DEFAULT_LEGS))
+    if (not isinstance(legs_raw, list) or len(legs_raw) != 4
+            or not all(isinstance(leg, str) for leg in legs_raw) or len(set(legs_raw)) != 4):
+        raise ConfigError(f"{where}.legs must list 4 distinct leg names, got {legs_raw!r}")
+    legs = tuple(legs_raw)
+    hips_raw = _per_leg(_section(data, "hips", where), legs, f"{where}.hips")
+    hips = np.zeros((4, 3))
+    for i, (leg, hip) in enumerate(zip(legs, hips_raw, strict=True)):
+        if not isinstance(hip, list) or len(hip) != 3:
+            raise ConfigError(f"{where}.hips.{leg} must be [x, y, z] in m, got {hip!r}")
+        hips[i] = [_number(v, f"{where}.hips.{leg}") for v in hip]
+    yaw = np.array([_number(v, f"{where}.neutral_yaw")
+                    for v in _per_leg(_section(data, "neutral_yaw", where), legs,
+                                      f"{where}.neutral_yaw")])
+    knees = _per_leg(_section(data, "knee", where), legs, f"{where}.knee")
+    for leg, knee in zip(legs, knees, strict=True):
+        if knee not in ("up", "down"):
+            raise ConfigError(f"{where}.knee.{leg} must be 'up' or 'down', got {knee!r}")
+    knee_sign = np.array([1.0 if k == "up" else -1.0 for k in knees])
+    links = _section(data, "links", where)
+    l1, l2, l3 = (_positive(links.get(k), f"{where}.links.{k}") for k in ("l1", "l2", "l3"))
+    limits = _section(data, "limits", where)
+    lower, upper, vel, eff = [], [], [], []
+    for kind in JOINT_KINDS:
+        lim = limits.get(kind)
+        if not isinstance(lim, Mapping):
+            raise ConfigError(f"{where}.limits.{kind} missing (lower, upper, velocity, effort)")
+        lo = _number(lim.get("lower"), f"{where}.limits.{kind}.lower")
+        hi = _number(lim.get("upper"), f"{where}.limits.{kind}.upper")
+        if not -math.pi <= lo < hi <= math.pi:
+            raise ConfigError(f"{where}.limits.{kind}: need -pi <= lower < upper <= pi, "
+                              f"got [{lo}, {hi}]")
+        lower.append(lo)
+        upper.append(hi)
+        vel.append(_positive(lim.get("velocity"), f"{where}.limits.{kind}.velocity"))
+        eff.append(_positive(lim.get("effort"), f"{where}.limits.{kind}.effort"))
+    stance = _section(data, "stance", where)
+    reach = _positive(stance.get("reach"), f"{where}.stance.reach")
+    height = _positive(stance.get("body_height"), f"{where}.stance.body_height")
+    rng = data.get("body_height_range", [height, height])
+    if not isinstance(rng, list) or len(rng) != 2:
+        raise ConfigError(f"{where}.body_height_range must be [min, max] in m, got {rng!r}")
+    rng_t = (_positive(rng[0], f"{where}.body_height_range"),
+             _positive(rng[1], f"{where}.body_height_range"))
+    if not rng_t[0] <= height <= rng_t[1]:
+        raise ConfigError(f"{where}.stance.body_height {height} m outside "
+                          f"body_height_range {list(rng_t)}")
+    if reach <= l1:
+        raise ConfigError(f"{where}.stance.reach {reach} m must exceed the coxa l1 = {l1} m")
+    knee_lo, knee_hi = lower[-1], upper[-1]
+    for leg, knee in zip(legs, knees, strict=True):
+        if (knee == "up" and knee_hi <= 0.0) or (knee == "down" and knee_lo >= 0.0):
+            raise ConfigError(f"{where}.knee.{leg} is '{knee}' (knee angle "
+                              f"{'> 0' if knee == 'up' else '< 0'}) but {where}.limits.knee "
+                              f"[{knee_lo}, {knee_hi}] allows no such angle")
+    return RobotConfig(legs=legs, hips=hips, neutral_yaw=yaw, knee_sign=knee_sign,
+                       l1=l1, l2=l2, l3=l3, lower=np.array(lower), upper=np.array(upper),
+                       velocity=np.array(vel), effort=np.array(eff), reach=reach,
+                       body_height=height, body_height_range=rng_t,
+                       name=str(data.get("name", "crawler")))
+
+
+def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gait") -> GaitConfig:
+    """Validate the ``gait`` section of the YAML and build a `GaitConfig`."""
+    gaits_raw = _section(data, "gaits", where)
+    gaits: dict[str, tuple[tuple[str, ...], ...]] = {}
+    for name, table in gaits_raw.items():
+        groups = table.get("groups") if isinstance(table, Mapping) else None
+        if (not isinstance(groups, list) or len(groups) < 2
+                or not all(isinstance(group, list) and group
+                           and all(isinstance(leg, str) for leg in group) for group in groups)):
+            raise ConfigError(f"{where}.gaits.{name}.groups must list >= 2 groups (lists) of "
+                              f"leg names, got {groups!r}")
+        flat = [leg for group in groups for leg in group]
+        if sorted(flat) != sorted(legs):
+            raise ConfigError(f"{where}.gaits.{name}: every leg {list(legs)} must swing exactly "
+                              f"once per step, got {groups}")
+        gaits[str(name)] = tuple(tuple(group) for group in groups)
+    profiles: dict[str, ProfileConfig] = {}
+    for name, prof in _section(data, "profiles", where).items():
+        if not isinstance(prof, Mapping):
+            raise ConfigError(f"{where}.profiles.{name} must be a mapping")
+        values = {k: _number(prof.get(k), f"{where}.profiles.{name}.{k}")
+                  for k in ("lift", "arc", "lower", "v_b", "v_d")}
+        fractions = (values["lift"], values["arc"], values["lower"])
+        if min(fractions) <= 0 or abs(sum(fractions) - 1.0) > 1e-9:
+            raise ConfigError(f"{where}.profiles.{name}: lift + arc + lower must be positive "
+                              f"fractions summing to 1, got {fractions}")
+        if values["v_b"] < 0 or values["v_d"] < 0:
+            raise ConfigError(f"{where}.profiles.{name}: v_b and v_d must be >= 0")
+        profiles[str(name)] = ProfileConfig(**values)
+    for needed in ("rest", "smooth"):
+        if needed not in profiles:
+            raise ConfigError(f"{where}.profiles must define '{needed}'")
+    rng = data.get("swing_time_range", [0.1, 5.0])
+    if not isinstance(rng, list) or len(rng) != 2:
+        raise ConfigError(f"{where}.swing_time_range must be [min, max] in s, got {rng!r}")
+    cfg = GaitConfig(
+        gait=str(data.get("gait", "diagonal")), profile=str(data.get("profile", "smooth")),
+        stride=_number(data.get("stride"), f"{where}.stride"),
+        lift=_positive(data.get("lift"), f"{where}.lift"),
+        arc=_positive(data.get("arc"), f"{where}.arc"),
+        swing_time=_positive(data.get("swing_time"), f"{where}.swing_time"),
+        stance_time=_positive(data.get("stance_time"), f"{where}.stance_time"),
+        max_stride=_positive(data.get("max_stride"), f"{where}.max_stride"),
+        max_turn=_positive(data.get("max_turn"), f"{where}.max_turn"),
+        max_clearance=_positive(data.get("max_clearance"), f"{where}.max_clearance"),
+        swing_time_range=(_positive(rng[0], f"{where}.swing_time_range"),
+                          _positive(rng[1], f"{where}.swing_time_range")),
+        gaits=gaits, profiles=profiles)
+    if cfg.swing_time_range[0] > cfg.swing_time_range[1]:
+        raise ConfigError(f"{where}.swing_time_range must be [min, max] with min <= max, "
+                          f"got {list(cfg.swing_time_range)}")
+    if cfg.gait not in gaits:
+        raise ConfigError(f"{where}.gait '{cfg.gait}' is not one of {sorted(gaits)}")
+    if cfg.profile not in profiles:
+        raise ConfigError(f"{where}.profile '{cfg.profile}' is not one of {sorted(profiles)}")
+    return cfg
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Load and validate ``robot.yaml`` (the shipped default when ``path`` is None)."""
+    file = Path(path) if path is not None else config_path("robot.yaml")
+    try:
+        text = file.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot read config file {file}: {exc.strerror}") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"cannot read config file {file}: not UTF-8 text ({exc})") from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"config file {file} is not valid YAML: {exc}") from exc
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"config file {file} must hold a mapping with 'robot' and 'gait'")
+    robot = parse_robot(_section(data, "robot", str(file)), f"{file}: robot")
+    gait = parse_gait(_section(data, "gait", str(file)), robot.legs, f"{file}: gait")
+    return Config(robot=robot, gait=gait, source=str(file))

@@ -1,0 +1,1 @@
+"""Foot trajectories, gaits and the fast per-tick evaluator."""

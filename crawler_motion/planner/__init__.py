@@ -1,0 +1,1 @@
+"""Operator commands, the planner state machine and its ROS node."""

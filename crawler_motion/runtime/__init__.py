@@ -1,0 +1,1 @@
+"""Real-time helpers: the steady-clock ticker and scheduling priority."""

@@ -1,0 +1,1 @@
+"""Simulated hardware on the CAN bus: the motor manager."""

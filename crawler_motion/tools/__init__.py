@@ -1,0 +1,1 @@
+"""Command-line tools: the crawler-motion CLI, console, demo, plots, benchmarks."""

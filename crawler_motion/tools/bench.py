@@ -1,0 +1,351 @@
+"""Benchmarks of the motion controller (``make bench``): prints figures, asserts nothing.
+
+Timing: every row calls its function many times after a warm-up, with the garbage collector
+disabled while timing, and takes ``time.perf_counter_ns`` around each single call; the table
+gives the median and the 99th percentile per call in microseconds (the timer's own overhead,
+printed in the header, is not subtracted). The machine may be shared: read the figures as
+orders of magnitude, compare rows of one run, and rerun before drawing conclusions.
+
+Rows:
+
+- IK of the 4 legs in one `inverse_kinematics` call, and of a batch of 10,000 foot targets
+  (2,500 x 4 legs) in one call;
+- re-planning one slot: `GaitSequencer.next_slot` in the steady state (all segment
+  coefficients of the slot), and the same followed by `check_trajectories` (what the planner
+  does before a slot starts);
+- one control tick through the public numpy API: `WalkPlan.evaluate` + `inverse_kinematics`
+  + `joint_velocities` for 4 feet / 12 joints at one instant;
+- the same tick through `motion.fastpath` (`LegEvaluator` + `FastKinematics`), and its
+  parts;
+- `PlannerCore.tick` while walking at 100 Hz as the node runs it (the next slot planned by
+  `PlannerCore.plan_ahead` between ticks), the same without planning ahead (its p99 is the
+  slot boundaries, where the tick plans and checks the next slot), and `plan_ahead` itself;
+- CAN bus load at 1 Mbit/s: command (target frames) at 100, 200 and 500 Hz and feedback
+  (positions, status, heartbeat) at the simulated manager's default rates, with worst-case
+  bit stuffing (`protocol.frame_bits_worst_case`).
+
+Run: python scripts/bench.py [--quick] [--e2e]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import math
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from crawler_motion.model.config import Config, load_config
+from crawler_motion.model.kinematics import inverse_kinematics, joint_velocities
+from crawler_motion.motion.fastpath import FastKinematics, LegEvaluator, joint_targets
+from crawler_motion.motion.gait import (
+    GaitSequencer,
+    WalkParams,
+    check_trajectories,
+    plan_walk,
+    standing_pose,
+    validate_params,
+)
+
+#: Median planner tick the project aims at [us].
+TICK_TARGET_US = 20.0
+#: Command rates of the bus-load table [Hz] and the bus bit rate [bit/s].
+COMMAND_RATES = (100.0, 200.0, 500.0)
+BITRATE = 1_000_000.0
+#: Planner tick rate of the planner row [Hz].
+PLANNER_RATE = 100.0
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of the timing table (``median``/``p99`` in us; None when skipped)."""
+
+    name: str
+    calls: int
+    median: float | None
+    p99: float | None
+    note: str = ""
+
+
+def measure(name: str, func: Callable[[], object], calls: int, warmup: int = 200,
+            note: str = "", between: Callable[[], object] | None = None) -> Row:
+    """Time ``func`` ``calls`` times (after ``warmup`` calls) with the GC disabled;
+    ``between`` (untimed) runs after every call."""
+    for _ in range(warmup):
+        func()
+        if between is not None:
+            between()
+    samples = [0] * calls
+    clock = time.perf_counter_ns
+    was_enabled = gc.isenabled()
+    gc.collect()
+    gc.disable()
+    try:
+        for i in range(calls):
+            start = clock()
+            func()
+            samples[i] = clock() - start
+            if between is not None:
+                between()
+    finally:
+        if was_enabled:
+            gc.enable()
+    samples.sort()
+    p99 = samples[min(calls - 1, math.ceil(0.99 * calls) - 1)]
+    return Row(name, calls, statistics.median(samples) / 1e3, p99 / 1e3, note)
+
+
+def timer_overhead() -> float:
+    """Median cost of an empty timed call [us]."""
+    return measure("", lambda: None, 20_000).median or 0.0
+
+
+def random_targets(cfg: Config, n: int, seed: int = 1) -> np.ndarray:
+    """``(n, n_legs, 3)`` reachable foot targets within the limits (around the standing feet)."""
+    rng = np.random.default_rng(seed)
+    feet = cfg.robot.standing_feet()
+    box = np.array([cfg.gait.max_stride / 2, cfg.gait.max_stride / 4, cfg.gait.max_clearance])
+    targets = feet + rng.uniform(-1.0, 1.0, (n, *feet.shape)) * box
+    targets[..., 2] = np.maximum(targets[..., 2], feet[:, 2])
+    inverse_kinematics(cfg.robot, targets)  # all valid, or this raises
+    return targets
+
+
+def timing_rows(cfg: Config, scale: float) -> list[Row]:
+    """Every timing row but the planner's."""
+    robot = cfg.robot
+
+    def n(calls: int) -> int:
+        return max(20, int(calls * scale))
+
+    rows = []
+    feet = random_targets(cfg, 1)[0]
+    rows.append(measure("IK, 4 legs in one call (`inverse_kinematics`)",
+                        lambda: inverse_kinematics(robot, feet), n(5000)))
+    batch = random_targets(cfg, 2500)
+    rows.append(measure("IK, batch of 10,000 foot targets (2,500 x 4) in one call",
+                        lambda: inverse_kinematics(robot, batch), n(200), warmup=10))
+    per = rows[-1].median / 10_000 * 1e3 if rows[-1].median else math.nan
+    rows[-1] = Row(rows[-1].name, rows[-1].calls, rows[-1].median, rows[-1].p99,
+                   f"{per:.0f} ns per target")
+
+    params = WalkParams.defaults(cfg.gait)
+    seq = GaitSequencer(cfg, params)
+    for _ in range(3):  # start slot(s), then steady
+        seq.next_slot()
+    rows.append(measure("re-plan one slot (`GaitSequencer.next_slot`, steady)",
+                        seq.next_slot, n(500), warmup=20))
+
+    def plan_and_check() -> None:
+        slot = seq.next_slot()
+        assert slot is not None
+        check_trajectories(robot, slot.legs, "slot")
+
+    rows.append(measure("re-plan one slot + `check_trajectories`", plan_and_check, n(300),
+                        warmup=10))
+
+    plan = plan_walk(cfg, params, 3)
+    period = 1.0 / PLANNER_RATE
+    clock = [0.0]
+
+    def next_time() -> float:
+        clock[0] += period
+        if clock[0] > plan.duration:
+            clock[0] = 0.0
+        return clock[0]
+
+    def public_tick() -> None:
+        pos, vel, _ = plan.evaluate(next_time())
+        q = inverse_kinematics(robot, pos[0])
+        joint_velocities(robot, q, vel[0])
+
+    rows.append(measure("tick, public API: `WalkPlan.evaluate` + IK + `joint_velocities`",
+                        public_tick, n(3000), note="4 feet, 12 joints, one instant"))
+
+    evaluator = LegEvaluator(plan.legs)
+    kin = FastKinematics(robot)
+    rows.append(measure("tick, fast path: `fastpath.joint_targets`",
+                        lambda: joint_targets(evaluator, kin, next_time()), n(20000),
+                        note="same numbers to 1e-12 (test_fastpath)"))
+    pos, vel = evaluator.evaluate(1.3)
+    q = kin.inverse(pos)
+    rows.append(measure("  fast path part: `LegEvaluator.evaluate` (4 feet, p + v)",
+                        lambda: evaluator.evaluate(next_time()), n(20000)))
+    rows.append(measure("  fast path part: `FastKinematics.inverse` (4 legs)",
+                        lambda: kin.inverse(pos), n(20000)))
+    rows.append(measure("  fast path part: `FastKinematics.velocities` (12 joints)",
+                        lambda: kin.velocities(q, vel), n(20000)))
+    slot = seq.next_slot()
+    assert slot is not None
+    rows.append(measure("fast path slot setup (`LegEvaluator(slot.legs)`)",
+                        lambda: LegEvaluator(slot.legs), n(2000)))
+    return rows
+
+
+def planner_rows(cfg: Config, scale: float) -> list[Row]:
+    """`PlannerCore.tick` while walking at `PLANNER_RATE`, as the node runs it (the next slot
+    planned by `PlannerCore.plan_ahead` right after a tick, outside the timed call), then the
+    same without planning ahead (the tick plans at the boundary), and `plan_ahead` itself."""
+    from crawler_motion.planner.core import PlannerCore
+
+    params = validate_params(WalkParams.defaults(cfg.gait), cfg)
+    n_groups = len(cfg.gait.gaits[params.gait])
+    slot_time = (params.swing_time + float(params.stance_time)) / n_groups  # type: ignore[arg-type]
+    calls = max(200, int(6000 * scale))
+    rows = []
+    for ahead in (True, False):
+        core = PlannerCore(cfg, PLANNER_RATE)
+        pose = standing_pose(cfg)
+        now = 0.0
+        core.set_measured(pose, now)
+        core.submit('{"command": "stand"}', now)
+        while core.state != "STANDING":
+            now += 1.0 / PLANNER_RATE
+            core.set_measured(pose, now)
+            core.tick(now)
+        core.submit('{"command": "walk"}', now)  # until stopped
+        clock = [now]
+        planning: list[int] = []
+
+        def tick(core: PlannerCore = core, clock: list[float] = clock) -> None:
+            clock[0] += 1.0 / PLANNER_RATE
+            core.tick(clock[0])
+
+        def plan(core: PlannerCore = core, planning: list[int] = planning) -> None:
+            t0 = time.perf_counter_ns()
+            if core.plan_ahead():
+                planning.append(time.perf_counter_ns() - t0)
+
+        slots = calls / (PLANNER_RATE * slot_time)
+        if ahead:
+            name = (f"planner tick (`PlannerCore.tick`, walking, {PLANNER_RATE:g} Hz, next "
+                    f"slot planned ahead between ticks, as the node does)")
+            note = f"{slots:.0f} slot boundaries in the run, all switched without planning"
+        else:
+            name = "planner tick without `plan_ahead` (the boundary tick plans the slot)"
+            note = (f"{slots:.0f} slot boundaries in the run (1 tick in "
+                    f"{PLANNER_RATE * slot_time:.0f}): they make the p99")
+        row = measure(name, tick, calls, warmup=100, between=plan if ahead else None)
+        if core.state != "WALKING":
+            note += f"; ended in {core.state}"
+        rows.append(Row(row.name, row.calls, row.median, row.p99, note))
+        if ahead and planning:
+            us = sorted(x / 1e3 for x in planning)
+            rows.append(Row("`PlannerCore.plan_ahead` (plan + check the next slot + its "
+                            "evaluator), once per slot", len(us), statistics.median(us),
+                            us[min(len(us) - 1, round(0.99 * (len(us) - 1)))],
+                            "runs in the ticker thread right after a tick"))
+    return rows
+
+
+def bus_rows(cfg: Config) -> list[tuple[str, float, float, int, float]]:
+    """(what, rate Hz, frames/s, worst-case bits per cycle, bus load %) rows."""
+    from crawler_motion.canbus.protocol import MotorProtocol, frame_bits_worst_case
+    from crawler_motion.sim import motor_manager as sim
+
+    proto = MotorProtocol.from_config(cfg)
+    db = proto.database
+
+    def family(kind: str) -> tuple[int, int]:
+        ids = proto.frame_ids(kind)
+        bits = sum(frame_bits_worst_case(db.get_message_by_frame_id(i).length,
+                                         db.get_message_by_frame_id(i).is_extended_frame)
+                   for i in ids)
+        return len(ids), bits
+
+    rows = []
+    n_target, target_bits = family("target")
+    for rate in COMMAND_RATES:
+        rows.append((f"command: {n_target} target frames", rate, n_target * rate, target_bits,
+                     100.0 * target_bits * rate / BITRATE))
+    feedback_rate = 1.0 / (proto.period("position") or 1.0 / sim.DEFAULT_RATE)
+    heartbeat_rate = 1.0 / (proto.period("heartbeat") or sim.DEFAULT_HEARTBEAT_PERIOD)
+    n_pos, pos_bits = family("position")
+    n_stat, stat_bits = family("status")
+    n_hb, hb_bits = family("heartbeat")
+    rows.append((f"feedback: {n_pos} position + {n_stat} status frames", feedback_rate,
+                 (n_pos + n_stat) * feedback_rate, pos_bits + stat_bits,
+                 100.0 * (pos_bits + stat_bits) * feedback_rate / BITRATE))
+    rows.append((f"feedback: {n_hb} heartbeat frame", heartbeat_rate, n_hb * heartbeat_rate,
+                 hb_bits, 100.0 * hb_bits * heartbeat_rate / BITRATE))
+    return rows
+
+
+def fmt(value: float | None, digits: int = 1) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def print_timing(rows: list[Row], overhead: float) -> None:
+    print(f"## Timing (median / p99 per call, us; timer overhead ~{overhead:.2f} us not "
+          f"subtracted; GC off while timing)\n")
+    print("| what | calls | median [us] | p99 [us] | note |")
+    print("|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r.name} | {r.calls} | {fmt(r.median)} | {fmt(r.p99)} | {r.note} |")
+
+
+def print_bus(rows: list[tuple[str, float, float, int, float]]) -> None:
+    print(f"\n## CAN bus load at {BITRATE / 1e6:g} Mbit/s (classic frames, 11-bit ids, "
+          f"worst-case bit stuffing incl. interframe space)\n")
+    print("| traffic | rate [Hz] | frames/s | worst-case bits per cycle | load [%] |")
+    print("|---|---|---|---|---|")
+    for what, rate, frames, bits, load in rows:
+        print(f"| {what} | {rate:g} | {frames:g} | {bits} | {load:.1f} |")
+    feedback = sum(r[4] for r in rows if r[0].startswith("feedback"))
+    for what, rate, _, _, load in rows:
+        if what.startswith("command"):
+            print(f"| **total at {rate:g} Hz command** | | | | **{load + feedback:.1f}** |")
+    print("\nMM_Control frames are sent on operator commands only (sporadic) and are not "
+          "counted.")
+
+
+def print_targets(rows: list[Row]) -> None:
+    print(f"\n## Target: planner tick <= {TICK_TARGET_US:g} us median\n")
+    for r in rows:
+        if r.name.startswith(("planner tick", "tick,")):
+            if r.median is None:
+                print(f"- {r.name}: {r.note}")
+                continue
+            verdict = "met" if r.median <= TICK_TARGET_US else "NOT met"
+            print(f"- {r.name}: {r.median:.1f} us -> {verdict}")
+
+
+def bench_e2e(args: argparse.Namespace) -> int:
+    """End-to-end bench over the cross-process bus (``scripts/bench_e2e.py``): planner ->
+    driver -> CAN at 100, 200 and 500 Hz, 15 s of walking per rate (5 s with ``--quick``)."""
+    from crawler_motion.tools import bench_e2e as e2e
+
+    return e2e.main(["--seconds", "5" if args.quick else "15"])
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmarks and print the tables."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="10x fewer calls per row (a smoke run; figures are noisier)")
+    parser.add_argument("--config", default=None, help="robot.yaml (default: the shipped one)")
+    parser.add_argument("--e2e", action="store_true",
+                        help="end-to-end bench over the cross-process bus instead "
+                             "(scripts/bench_e2e.py)")
+    args = parser.parse_args(argv)
+    if args.e2e:
+        return bench_e2e(args)
+    cfg = load_config(args.config)
+    scale = 0.1 if args.quick else 1.0
+    print(f"# crawler_motion bench (Python {sys.version.split()[0]}, numpy {np.__version__})\n")
+    overhead = timer_overhead()
+    rows = timing_rows(cfg, scale)
+    rows.extend(planner_rows(cfg, scale))
+    print_timing(rows, overhead)
+    print_targets(rows)
+    print_bus(bus_rows(cfg))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,276 @@
+"""``crawler-motion console``: send gait commands and twists, follow the planner's status.
+
+For a person at a terminal or a script: every command waits until the planner reaches the
+state it asked for and prints each status change (state, step k of N) on the way. Exit status:
+0 done, 1 refused / timed out / planner not found, 2 bad options.
+
+    crawler-motion console stand
+    crawler-motion console walk --steps 4 --gait wave
+    crawler-motion console twist --vx 0.03 --duration 4
+    crawler-motion console estop
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from crawler_motion.tools.args import OneLineParser, finite_number, positive_int
+
+PROG = "crawler-motion console"
+
+#: State reached when a command is done (None: return once the planner accepted it).
+DONE_STATES: dict[str, tuple[str, ...]] = {
+    "stand": ("STANDING",), "sit": ("SITTING",), "stop": ("STANDING",), "estop": ("ESTOP",),
+    "reset": ("IDLE",),
+}
+
+
+WALK_OPTIONS: tuple[tuple[str, Callable[[str], Any], str], ...] = (
+    ("stride", finite_number("stride"), "stride [m]"),
+    ("heading", finite_number("heading"), "direction of travel in the body frame [rad]"),
+    ("turn", finite_number("turn"), "yaw per step [rad]"),
+    ("lift", finite_number("lift"), "A->B rise [m]"),
+    ("arc", finite_number("arc"), "apex above B [m]"),
+    ("swing_time", finite_number("swing time"), "swing time [s]"),
+    ("stance_time", finite_number("stance time"), "stance time [s]"),
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of the console."""
+    parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
+    parser.add_argument("--timeout", type=finite_number("timeout", positive=True), default=60.0,
+                        help="give up after this long [s] (default 60)")
+    parser.add_argument("--quiet", action="store_true", help="print only the outcome")
+    sub = parser.add_subparsers(dest="action", required=True, parser_class=OneLineParser)
+    p = sub.add_parser("stand", help="stand up from the measured pose")
+    p.add_argument("--body-height", type=finite_number("body height", positive=True), default=None)
+    for name in ("sit", "stop", "estop", "reset"):
+        sub.add_parser(name, help=f"send {{\"command\": \"{name}\"}}")
+    p = sub.add_parser("walk", help="walk N steps (absent: until stopped) and wait for it")
+    p.add_argument("--steps", type=positive_int, default=None)
+    p.add_argument("--gait", default=None, help="diagonal | wave")
+    p.add_argument("--profile", default=None, help="rest | smooth")
+    for name, conv, text in WALK_OPTIONS:
+        p.add_argument(f"--{name.replace('_', '-')}", type=conv, default=None, help=text)
+    p = sub.add_parser("twist", help="publish cmd_vel for a while, then a zero twist")
+    p.add_argument("--vx", type=finite_number("vx"), default=0.0, help="forward speed [m/s]")
+    p.add_argument("--vy", type=finite_number("vy"), default=0.0, help="left speed [m/s]")
+    p.add_argument("--wz", type=finite_number("wz"), default=0.0, help="yaw rate [rad/s]")
+    p.add_argument("--duration", type=finite_number("duration", positive=True), default=3.0)
+    p.add_argument("--rate", type=finite_number("rate", positive=True), default=20.0)
+    p = sub.add_parser("status", help="print status changes for a while")
+    p.add_argument("--duration", type=finite_number("duration", positive=True), default=5.0)
+    p = sub.add_parser("send", help="send one raw JSON gait command")
+    p.add_argument("json", help="the JSON object, e.g. '{\"command\": \"stand\"}'")
+    return parser
+
+
+def command_from_args(args: argparse.Namespace) -> dict[str, Any] | None:
+    """The gait command object an action sends (None for twist/status)."""
+    if args.action in ("sit", "stop", "estop", "reset"):
+        return {"command": args.action}
+    if args.action == "stand":
+        cmd: dict[str, Any] = {"command": "stand"}
+        if args.body_height is not None:
+            cmd["body_height"] = args.body_height
+        return cmd
+    if args.action == "walk":
+        cmd = {"command": "walk"}
+        for name in ("steps", "gait", "profile", *(n for n, _, _ in WALK_OPTIONS)):
+            value = getattr(args, name)
+            if value is not None:
+                cmd[name] = value
+        return cmd
+    return None
+
+
+def describe(status: dict[str, Any]) -> str:
+    """One line for a status: state, step k of N, phase, pause."""
+    text = str(status.get("state"))
+    if status.get("state") in ("WALKING", "STOPPING"):
+        steps = status.get("steps")
+        text += f" step {status.get('step')} of {steps if steps is not None else '∞'}"
+        if status.get("phase"):
+            text += f" ({status['phase']})"
+    if status.get("paused"):
+        text += f" PAUSED: {status.get('pause_reason')}"
+    return text
+
+
+class Console:
+    """A small rclpy node that talks to the planner (created by `open`)."""
+
+    def __init__(self, node_name: str = "crawler_console") -> None:
+        import rclpy
+        from geometry_msgs.msg import Twist
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from std_msgs.msg import String
+
+        self._rclpy = rclpy
+        self._string, self._twist = String, Twist
+        self.node = rclpy.create_node(node_name)
+        self.pub_cmd = self.node.create_publisher(String, "gait_command", 10)
+        self.pub_twist = self.node.create_publisher(Twist, "cmd_vel", 10)
+        qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.status: dict[str, Any] | None = None
+        self.node.create_subscription(String, "planner_status", self._on_status, qos)
+        self.printer: Callable[[str], None] = print
+        self._t0 = time.monotonic()
+        self._last_line = ""
+
+    def _on_status(self, msg: Any) -> None:
+        try:
+            status = json.loads(msg.data)
+        except ValueError:
+            return
+        if isinstance(status, dict):
+            self.status = status
+            line = describe(status)
+            if line != self._last_line:
+                self._last_line = line
+                self.printer(f"[{time.monotonic() - self._t0:6.2f} s] {line}")
+
+    def spin_for(self, seconds: float) -> None:
+        """Process callbacks for ``seconds``."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            left = max(0.0, end - time.monotonic())
+            self._rclpy.spin_once(self.node, timeout_sec=min(0.05, left))
+
+    def wait_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        """Spin until ``predicate()`` is true or ``timeout`` [s] passes."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if predicate():
+                return True
+            self._rclpy.spin_once(self.node, timeout_sec=0.05)
+        return predicate()
+
+    def connect(self, timeout: float) -> bool:
+        """Wait for the planner: a status received and our command publisher matched."""
+        return self.wait_until(lambda: self.status is not None
+                               and self.pub_cmd.get_subscription_count() > 0, timeout)
+
+    def send(self, command: dict[str, Any]) -> None:
+        """Publish one gait command."""
+        self.pub_cmd.publish(self._string(data=json.dumps(command)))
+
+    def twist(self, vx: float, vy: float, wz: float) -> None:
+        """Publish one twist."""
+        msg = self._twist()
+        msg.linear.x, msg.linear.y, msg.angular.z = float(vx), float(vy), float(wz)
+        self.pub_twist.publish(msg)
+
+    def run(self, command: dict[str, Any], timeout: float) -> tuple[bool, str]:
+        """Send ``command`` and follow the status until done; returns (ok, message)."""
+        assert self.status is not None
+        refusals = self.status.get("refusals", 0)
+        revision = self.status.get("revision", -1)
+        name = command.get("command")
+        self.send(command)
+        seen: list[str] = []
+
+        def refused() -> bool:
+            return self.status is not None and self.status.get("refusals", 0) > refusals
+
+        def progressed() -> bool:
+            st = self.status or {}
+            if st.get("revision", -1) != revision:
+                seen.append(str(st.get("state")))
+            if refused():
+                return True
+            if name == "walk":
+                if command.get("steps") is None:
+                    return "WALKING" in seen
+                return "WALKING" in seen and st.get("state") == "STANDING"
+            return st.get("state") in DONE_STATES.get(str(name), ()) and (
+                st.get("revision", -1) != revision or name in ("estop",))
+
+        done = self.wait_until(progressed, timeout)
+        if refused():
+            return False, f"refused: {self.status.get('last_refusal')}"  # type: ignore[union-attr]
+        if not done:
+            return False, f"timed out after {timeout:g} s in {describe(self.status or {})}"
+        return True, describe(self.status or {})
+
+    def run_when_ready(self, command: dict[str, Any], timeout: float,
+                       retry_for: float | None = None) -> tuple[bool, str]:
+        """`run`, retried every 0.5 s for up to ``retry_for`` [s] (default ``timeout``) while
+        the planner refuses it only for a transient reason: paused by a motor-manager fault
+        such as a late heartbeat (waits for the pause to clear), or no measured joint_states
+        yet (the driver's feedback still being discovered)."""
+        end = time.monotonic() + (timeout if retry_for is None else retry_for)
+        ok, message = self.run(command, timeout)
+        while not ok and ("paused" in message or "no measured" in message):
+            if time.monotonic() >= end:
+                break
+            self.spin_for(0.5)
+            self.wait_until(lambda: not (self.status or {}).get("paused"),
+                            max(0.0, end - time.monotonic()))
+            ok, message = self.run(command, timeout)
+        return ok, message
+
+    def close(self) -> None:
+        """Destroy the node."""
+        self.node.destroy_node()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``crawler-motion console``; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    command: dict[str, Any] | None
+    if args.action == "send":
+        try:
+            command = json.loads(args.json)
+        except ValueError as exc:
+            print(f"{PROG}: error: not valid JSON: {exc}", file=sys.stderr)
+            return 2
+        if not isinstance(command, dict):
+            print(f"{PROG}: error: the command must be a JSON object", file=sys.stderr)
+            return 2
+    else:
+        command = command_from_args(args)
+    import rclpy
+
+    rclpy.init()
+    console: Console | None = None
+    try:
+        console = Console()
+        if args.quiet:
+            console.printer = lambda _line: None
+        if not console.connect(min(args.timeout, 10.0)):
+            print(f"{PROG}: error: no planner answering on planner_status/gait_command",
+                  file=sys.stderr)
+            return 1
+        if args.action == "status":
+            console.spin_for(args.duration)
+            return 0
+        if args.action == "twist":
+            period = 1.0 / args.rate
+            end = time.monotonic() + args.duration
+            while time.monotonic() < end:
+                console.twist(args.vx, args.vy, args.wz)
+                console.spin_for(period)
+            console.twist(0.0, 0.0, 0.0)
+            ok = console.wait_until(lambda: (console.status or {}).get("state") in (
+                "STANDING", "IDLE", "ESTOP"), args.timeout)
+            print(f"{PROG}: {'done' if ok else 'timed out'}: {describe(console.status or {})}")
+            return 0 if ok else 1
+        assert command is not None
+        ok, message = console.run(command, args.timeout)
+        print(f"{PROG}: {'done' if ok else 'error'}: {message}",
+              file=sys.stdout if ok else sys.stderr)
+        return 0 if ok else 1
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        if console is not None:
+            console.close()
+        rclpy.try_shutdown()

@@ -1,0 +1,296 @@
+"""The planner node in-process (launch-free): a probe node talks to it over real topics."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+
+import numpy as np
+import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import Twist
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+
+from crawler_motion.model.config import load_config
+from crawler_motion.motion.gait import standing_pose
+from crawler_motion.planner.core import sitting_pose
+from crawler_motion.planner.node import PlannerNode
+
+CFG = load_config()
+NAMES = list(CFG.robot.joint_names)
+SIT = sitting_pose(CFG).reshape(-1)
+
+
+class Probe(Node):
+    """Publishes commands and a fake measured joint_states; records what the planner says."""
+
+    def __init__(self, context: Context) -> None:
+        super().__init__("planner_probe", context=context)
+        self.cmd_vel = self.create_publisher(Twist, "cmd_vel", 10)
+        self.gait_command = self.create_publisher(String, "gait_command", 10)
+        self.joint_states = self.create_publisher(JointState, "joint_states", 10)
+        self.diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.commands: list[tuple[float, JointState]] = []
+        self.statuses: list[dict] = []
+        self.measured = SIT.copy()
+        self.lock = threading.Lock()
+        status_qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                                durability=DurabilityPolicy.TRANSIENT_LOCAL)  # keep every one
+        self.create_subscription(JointState, "joint_commands", self._on_command, 100)
+        self.create_subscription(String, "planner_status", self._on_status, status_qos)
+        self.create_timer(0.02, self._publish_measured)
+
+    def _on_command(self, msg: JointState) -> None:
+        with self.lock:
+            self.commands.append((time.monotonic(), msg))
+
+    def _on_status(self, msg: String) -> None:
+        with self.lock:
+            self.statuses.append(json.loads(msg.data))
+
+    def _publish_measured(self) -> None:
+        order = list(reversed(range(12)))  # any order: the planner sorts by name
+        msg = JointState(name=[NAMES[i] for i in order],
+                         position=[float(self.measured[i]) for i in order])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.joint_states.publish(msg)
+
+    def send(self, text: str) -> None:
+        self.gait_command.publish(String(data=text))
+
+    def twist(self, vx: float, vy: float = 0.0, wz: float = 0.0) -> None:
+        msg = Twist()
+        msg.linear.x, msg.linear.y, msg.angular.z = vx, vy, wz
+        self.cmd_vel.publish(msg)
+
+    def diagnose(self, level: bytes, hardware_id: str = "motor_manager",
+                 message: str = "") -> None:
+        status = DiagnosticStatus(level=level, name="motor_manager: axes",
+                                  hardware_id=hardware_id, message=message)
+        self.diagnostics.publish(DiagnosticArray(status=[status]))
+
+    def last_status(self) -> dict:
+        with self.lock:
+            return self.statuses[-1] if self.statuses else {}
+
+    def mark(self) -> int:
+        """Index of the next status: wait only for statuses after an action."""
+        with self.lock:
+            return len(self.statuses)
+
+    def wait_status(self, predicate: Callable[[dict], bool], timeout: float = 5.0,
+                    since: int = 0) -> dict:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            with self.lock:
+                found = [s for s in self.statuses[since:] if predicate(s)]
+            if found:
+                return found[-1]
+            time.sleep(0.01)
+        raise AssertionError(f"no such planner_status within {timeout} s; last: "
+                             f"{self.last_status()}")
+
+    def wait_state(self, state: str, since: int, timeout: float = 5.0) -> dict:
+        return self.wait_status(lambda s: s["state"] == state, timeout, since)
+
+    def commands_between(self, t0: float, t1: float) -> list[JointState]:
+        with self.lock:
+            return [msg for t, msg in self.commands if t0 <= t <= t1]
+
+    def clear(self) -> None:
+        with self.lock:
+            self.commands.clear()
+            self.statuses.clear()
+
+
+class Ros:
+    """One context; the planner spins in its own executor thread, the probe in another
+    (the test thread calls the planner's set_parameters concurrently: the node's lock)."""
+
+    def __init__(self, overrides: list[Parameter] | None = None) -> None:
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.planner = PlannerNode(context=self.context, parameter_overrides=overrides or [])
+        self.probe = Probe(self.context)
+        # rclpy's MultiThreadedExecutor starves a 100 Hz timer in a mutually exclusive group
+        # on a loaded machine (seen: 15-85 Hz); the node runs under rclpy.spin (single) anyway
+        self.executors = [SingleThreadedExecutor(context=self.context),
+                          SingleThreadedExecutor(context=self.context)]
+        self.executors[0].add_node(self.planner)
+        self.executors[1].add_node(self.probe)
+        self.threads = [threading.Thread(target=ex.spin, daemon=True) for ex in self.executors]
+        for thread in self.threads:
+            thread.start()
+
+    def close(self) -> None:
+        for ex in self.executors:
+            ex.shutdown(timeout_sec=2.0)
+        self.planner.destroy_node()
+        self.probe.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+        for thread in self.threads:
+            thread.join(timeout=2.0)
+
+    def stand(self) -> None:
+        """Measured joint_states flowing, then stand; returns once STANDING."""
+        self.probe.wait_state("IDLE", 0)
+        time.sleep(0.1)  # a few joint_states
+        mark = self.probe.mark()
+        self.probe.send('{"command": "stand"}')
+        self.probe.wait_state("STANDING", mark)
+
+
+@pytest.fixture
+def ros() -> Iterator[Ros]:
+    env = Ros([Parameter("cmd_vel_timeout", value=0.3)])
+    try:
+        yield env
+    finally:
+        env.close()
+
+
+def rate_of(msgs: list[JointState]) -> float:
+    stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in msgs])
+    return (len(stamps) - 1) / (stamps[-1] - stamps[0])
+
+
+def test_idle_then_stand_publishes_joint_commands_at_the_rate(ros):
+    probe = ros.probe
+    status = probe.wait_state("IDLE", 0)
+    assert status["paused"] is False and status["gait"] == "diagonal" and "time" in status
+    assert isinstance(status["missed_ticks"], int)  # > 0 only if the process was starved
+    time.sleep(0.3)
+    assert probe.commands_between(0, time.monotonic()) == []  # IDLE publishes nothing
+    mark = probe.mark()
+    probe.send('{"command": "stand"}')
+    probe.wait_status(lambda s: s["state"] == "MOVING" and s["target"] == "stand", since=mark)
+    t0 = time.monotonic()
+    time.sleep(1.6)
+    msgs = probe.commands_between(t0 + 0.1, t0 + 1.6)
+    assert len(msgs) > 100
+    assert rate_of(msgs) == pytest.approx(100.0, rel=0.10)  # the publisher's stamps
+    first = probe.commands_between(0, time.monotonic())[0]
+    assert list(first.name) == NAMES
+    np.testing.assert_allclose(first.position, SIT, atol=0.02)  # from the measured pose
+    for msg in msgs:
+        assert len(msg.position) == 12 and len(msg.velocity) == 12 and len(msg.effort) == 0
+        assert msg.header.stamp.sec > 0
+    probe.wait_state("STANDING", mark)
+    time.sleep(0.1)
+    last = probe.commands_between(0, time.monotonic())[-1]
+    np.testing.assert_allclose(last.position, standing_pose(CFG).reshape(-1), atol=1e-9)
+    np.testing.assert_array_equal(last.velocity, 0.0)
+
+
+def test_bad_json_is_refused_with_the_reason_in_the_status(ros):
+    probe = ros.probe
+    probe.wait_state("IDLE", 0)
+    probe.send("{oops")
+    status = probe.wait_status(lambda s: s["refusals"] >= 1)
+    assert "not valid JSON" in status["last_refusal"] and status["state"] == "IDLE"
+    probe.send('{"command": "walk"}')
+    status = probe.wait_status(lambda s: s["refusals"] >= 2)
+    assert "walk refused in state IDLE: send stand first" in status["last_refusal"]
+
+
+def test_parameter_sets_are_validated_by_the_node(ros):
+    planner, probe = ros.planner, ros.probe
+    probe.wait_state("IDLE", 0)
+    # within every descriptor range, but lift + arc above the maximum clearance
+    result = planner.set_parameters([Parameter("lift", value=0.035)])[0]
+    assert not result.successful and "parameters refused" in result.reason
+    assert "arc" in result.reason
+    assert planner.get_parameter("lift").value == CFG.gait.lift
+    status = probe.wait_status(lambda s: s["refusals"] >= 1)
+    assert "parameters refused" in status["last_refusal"]
+    result = planner.set_parameters([Parameter("stride", value=0.5)])[0]  # descriptor range
+    assert not result.successful and result.reason
+    result = planner.set_parameters([Parameter("gait", value="gallop")])[0]
+    assert not result.successful and "'gait' must be one of" in result.reason
+    result = planner.set_parameters([Parameter("config_file", value="other.yaml")])[0]
+    assert not result.successful  # read-only
+    result = planner.set_parameters_atomically([Parameter("lift", value=0.02),
+                                                Parameter("arc", value=0.015)])
+    assert result.successful
+    # the rate applies to the running timer
+    assert planner.set_parameters([Parameter("rate", value=50.0)])[0].successful
+    ros.stand()
+    t0 = time.monotonic()
+    time.sleep(1.2)
+    msgs = probe.commands_between(t0 + 0.1, t0 + 1.2)
+    assert rate_of(msgs) == pytest.approx(50.0, rel=0.10)
+
+
+def test_walk_steps_and_status(ros):
+    probe = ros.probe
+    ros.stand()
+    mark = probe.mark()
+    probe.send('{"command": "walk", "steps": 1, "swing_time": 0.3}')
+    status = probe.wait_state("WALKING", mark)
+    assert (status["steps"], status["source"], status["gait"]) == (1, "command", "diagonal")
+    status = probe.wait_state("STANDING", mark)
+    assert (status["step"], status["steps"], status["refusals"]) == (1, 1, 0)
+
+
+def test_motor_manager_fault_pauses(ros):
+    probe = ros.probe
+    probe.wait_state("IDLE", 0)
+    probe.diagnose(DiagnosticStatus.ERROR, hardware_id="some_other_board")
+    probe.diagnose(DiagnosticStatus.ERROR, message="axis 4 overcurrent")
+    status = probe.wait_status(lambda s: s["paused"])
+    assert "axis 4 overcurrent" in status["pause_reason"]
+    probe.diagnose(DiagnosticStatus.STALE)  # no information: still paused
+    time.sleep(0.2)
+    assert probe.last_status()["paused"]
+    probe.diagnose(DiagnosticStatus.WARN)
+    probe.wait_status(lambda s: not s["paused"] and s["revision"] > status["revision"])
+
+
+def test_cmd_vel_walk_times_out_and_estop_stops_the_output(ros):
+    probe = ros.probe
+    ros.stand()
+    mark = probe.mark()
+    end = time.monotonic() + 5.0
+    while probe.last_status()["state"] != "WALKING" and time.monotonic() < end:
+        probe.twist(0.05, 0.0, 0.1)  # until the walk has started, then no more twists
+        time.sleep(0.05)
+    status = probe.wait_state("WALKING", mark)
+    assert status["source"] == "cmd_vel" and status["steps"] is None
+    probe.wait_state("STOPPING", mark, timeout=3.0)  # no twists: timeout 0.3 s
+    with probe.lock:
+        events = [s["last_event"] or "" for s in probe.statuses[mark:]]
+    assert any("cmd_vel timeout" in e for e in events), events
+    mark = probe.mark()
+    probe.wait_state("STANDING", mark, timeout=3.0)
+    probe.twist(0.5)  # beyond the speed limit
+    status = probe.wait_status(lambda s: s["refusals"] >= 1, since=mark)
+    assert "exceeds the maximum" in status["last_refusal"] and status["state"] == "STANDING"
+    mark = probe.mark()
+    probe.send('{"command": "estop"}')
+    probe.wait_state("ESTOP", mark)
+    time.sleep(0.1)
+    t0 = time.monotonic()
+    time.sleep(0.4)
+    assert probe.commands_between(t0, time.monotonic()) == []
+
+
+@pytest.mark.parametrize(("param", "fragment"), [("lift:=0.035", "arc"),
+                                                  ("tick_priority:=100", "tick_priority")])
+def test_main_refuses_invalid_parameters_and_exits_1(param, fragment):
+    proc = subprocess.run(
+        [sys.executable, "-m", "crawler_motion.planner.node", "--ros-args", "-p", param],
+        capture_output=True, text=True, timeout=20)
+    assert proc.returncode == 1
+    assert "planner cannot start" in proc.stderr + proc.stdout
+    assert fragment in proc.stderr + proc.stdout

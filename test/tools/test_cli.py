@@ -1,0 +1,112 @@
+"""The crawler-motion command line: CSV contracts and one-line errors."""
+
+from __future__ import annotations
+
+import csv
+import io
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from crawler_motion.model.config import load_config
+from crawler_motion.model.kinematics import forward_kinematics
+from crawler_motion.tools import cli
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def rows(text: str) -> list[dict[str, str]]:
+    return list(csv.DictReader(io.StringIO(text)))
+
+
+def test_trajectory_header_and_both_ends(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "trajectory", "--rate", "100")
+    assert code == 0
+    assert out.splitlines()[0] == ("t,phase,x,y,z,vx,vy,vz,ax,ay,az,q_root,q_shoulder,q_knee")
+    data = rows(out)
+    assert len(data) == 121  # 0.6 s swing + 0.6 s stance at 100 Hz, both ends
+    assert float(data[0]["t"]) == 0.0 and float(data[-1]["t"]) == pytest.approx(1.2)
+    assert data[0]["phase"] == "lift" and data[-1]["phase"] == "stance"
+    assert {r["phase"] for r in data} == {"lift", "arc", "lower", "stance"}
+    first = np.array([float(data[0][k]) for k in "xyz"])
+    last = np.array([float(data[-1][k]) for k in "xyz"])
+    np.testing.assert_allclose(first, last, atol=1e-12)
+
+
+@pytest.mark.parametrize("leg", ["lf", "lb", "rb", "rf"])
+def test_trajectory_joint_angles_match_positions(capsys: pytest.CaptureFixture[str],
+                                                 leg: str) -> None:
+    cfg = load_config()
+    code, out, _ = run(capsys, "trajectory", "--leg", leg, "--profile", "rest", "--rate", "50")
+    assert code == 0
+    idx = cfg.robot.legs.index(leg)
+    for r in rows(out)[::7]:
+        q = np.zeros((4, 3))
+        q[:] = [0.0, 0.17, 1.27]
+        q[idx] = [float(r[k]) for k in ("q_root", "q_shoulder", "q_knee")]
+        foot = forward_kinematics(cfg.robot, q)[idx]
+        np.testing.assert_allclose(foot, [float(r[k]) for k in "xyz"], atol=1e-8)
+
+
+def test_trajectory_options_change_the_step(capsys: pytest.CaptureFixture[str]) -> None:
+    _, out, _ = run(capsys, "trajectory", "--profile", "rest", "--stride", "0.04", "--lift",
+                    "0.012", "--arc", "0.005", "--swing-time", "0.5", "--stance-time", "0.7",
+                    "--rate", "200")
+    data = rows(out)
+    x = np.array([float(r["x"]) for r in data])
+    z = np.array([float(r["z"]) for r in data])
+    assert x.max() - x.min() == pytest.approx(0.04, abs=1e-9)
+    assert z.max() - z.min() == pytest.approx(0.017, abs=1e-9)
+    assert float(data[-1]["t"]) == pytest.approx(1.2)
+
+
+def test_walk_csv(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "walk", "--steps", "1", "--rate", "50")
+    assert code == 0
+    data = rows(out)
+    header = out.splitlines()[0].split(",")
+    assert header[3:15] == list(load_config().robot.joint_names)
+    assert len(header) == 3 + 12 + 12
+    assert data[0]["kind"] == "start" and data[-1]["kind"] == "stop"
+    first = [float(v) for v in list(data[0].values())[3:]]
+    last = [float(v) for v in list(data[-1].values())[3:]]
+    np.testing.assert_allclose(first, last, atol=1e-9)  # back to standing
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["trajectory", "--rate", "abc"], "rate must be a number"),
+    (["trajectory", "--rate", "nan"], "rate must be finite"),
+    (["trajectory", "--leg", "xx"], "invalid choice"),
+    (["trajectory", "--stride", "0.5"], "reachable is"),
+    (["trajectory", "--swing-time", "0"], "must be > 0"),
+    (["walk", "--steps", "0"], "must be >= 1"),
+    (["walk", "--stride", "0.2"], "stride = 0.2 m is outside"),
+    (["walk", "--gait", "gallop"], "gait 'gallop' unknown"),
+    (["walk", "--config", "does-not-exist.yaml"], "cannot read config file"),
+    (["nosuchcommand"], "invalid choice"),
+])
+def test_bad_options_one_line_error(argv: list[str], fragment: str) -> None:
+    proc = subprocess.run([sys.executable, "-m", "crawler_motion.tools.cli", *argv],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode != 0
+    assert proc.stdout == ""
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert fragment in lines[0]
+
+
+def test_urdf_and_plot(capsys: pytest.CaptureFixture[str], tmp_path) -> None:
+    code, out, _ = run(capsys, "urdf")
+    assert code == 0 and out.lstrip().startswith("<?xml") and "lf_knee_joint" in out
+    code, out, _ = run(capsys, "plot", "--out", str(tmp_path))
+    assert code == 0
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == ["foot_path.png", "foot_profiles.png", "walk_joints.png"]
+    assert all((tmp_path / n).stat().st_size > 10_000 for n in names)
