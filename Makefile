@@ -26,13 +26,13 @@ lint: $(STAMP)
 	$(PY) -m ruff check crawler_motion test
 
 bench: $(STAMP)
-	$(PY) -m crawler_motion.tools.bench
-	$(PY) -m crawler_motion.tools.smoothness --out plots
-	$(PY) -m crawler_motion.tools.bench --e2e
+	$(VENV)/bin/crawler-motion bench
+	$(VENV)/bin/crawler-motion smoothness --out plots
+	$(VENV)/bin/crawler-motion bench --e2e
 
 # The whole stack walking for 10 minutes on the cross-process bus; exit 1 if anything was lost.
 soak: $(STAMP)
-	$(PY) -m crawler_motion.tools.soak --rate 200 --duration 600
+	$(VENV)/bin/crawler-motion soak --rate 200 --duration 600
 
 plots: $(STAMP)
 	$(VENV)/bin/crawler-motion plot --out plots

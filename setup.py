@@ -10,7 +10,6 @@ setup(
     name=PACKAGE,
     version="0.1.0",
     packages=find_packages(exclude=["test"]),
-    package_data={PACKAGE: ["data/*"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
@@ -24,9 +23,12 @@ setup(
         "cantools>=39",
         "msgpack>=1.0",
         "matplotlib>=3.7",
-        "scipy>=1.10",
     ],
-    extras_require={"test": ["pytest>=7", "hypothesis>=6.80", "ruff>=0.5"]},
+    extras_require={
+        "test": ["pytest>=7", "hypothesis>=6.80", "ruff>=0.5"],
+        # `crawler-motion tune-smooth` only
+        "tune": ["scipy>=1.10"],
+    },
     zip_safe=True,
     maintainer="crawler_motion maintainers",
     maintainer_email="maintainers@crawler-motion.invalid",
@@ -37,7 +39,7 @@ setup(
         "console_scripts": [
             "crawler-motion = crawler_motion.tools.cli:main",
             "planner_node = crawler_motion.planner.node:main",
-            "motor_manager_sim = crawler_motion.sim.motor_manager:main",
+            "motor_manager_sim = crawler_motion.sim.manager_cli:main",
             "driver_node = crawler_motion.driver.node:main",
         ],
     },

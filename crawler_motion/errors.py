@@ -11,10 +11,19 @@ catch one type. Messages say what was wrong and what would be right.
     ├── TrajectoryError        inconsistent trajectory constraints
     ├── GaitError              a walk that cannot be planned or executed
     ├── CommandError           a malformed or out-of-range operator command
-    └── ProtocolError          CAN encoding/decoding or axis-map error
+    └── ProtocolError          CAN protocol error (argument errors raise the base)
+        ├── ProtocolParseError   unreadable or inconsistent DBC / axis-map file
+        │                        (path, key, line)
+        └── FrameError           a frame that cannot be built or read
+            │                    (frame_id, signal, joint, value)
+            ├── ProtocolEncodeError  a value that cannot be encoded (never clipped)
+            └── ProtocolDecodeError  a received frame that is not a valid one
 """
 
 from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
 
 
 class CrawlerMotionError(Exception):
@@ -26,7 +35,13 @@ class ConfigError(CrawlerMotionError, ValueError):
 
 
 class KinematicsError(CrawlerMotionError, ValueError):
-    """A foot target or joint configuration cannot be realised."""
+    """A foot target or joint configuration cannot be realised.
+
+    ``sample``: the index of the first failing sample over the leading (batch) dimensions of
+    the input, or None for a single pose.
+    """
+
+    sample: tuple[int, ...] | None = None
 
 
 class UnreachableError(KinematicsError):
@@ -50,4 +65,43 @@ class CommandError(CrawlerMotionError, ValueError):
 
 
 class ProtocolError(CrawlerMotionError, ValueError):
-    """A CAN frame cannot be encoded or decoded, or the axis map is inconsistent."""
+    """A CAN frame cannot be encoded or decoded, or the DBC / axis map is inconsistent."""
+
+
+class ProtocolParseError(ProtocolError):
+    """A DBC or axis-map file cannot be read or is inconsistent.
+
+    ``path`` is the file (None when the data did not come from a file), ``key`` the dotted place
+    in the axis map (e.g. ``axes.lf_knee_joint.axis``) and ``line`` the 1-based line, when known.
+    """
+
+    def __init__(self, message: str, *, path: str | Path | None = None, key: str | None = None,
+                 line: int | None = None) -> None:
+        super().__init__(message)
+        self.path = None if path is None else Path(path)
+        self.key = key
+        self.line = line
+
+
+class FrameError(ProtocolError):
+    """A frame cannot be built or read; the attributes say where, when known.
+
+    ``frame_id`` is the arbitration id, ``signal`` the DBC signal name, ``joint`` the joint name
+    and ``value`` the offending value (an angle in rad for positions).
+    """
+
+    def __init__(self, message: str, *, frame_id: int | None = None, signal: str | None = None,
+                 joint: str | None = None, value: Any = None) -> None:
+        super().__init__(message)
+        self.frame_id = frame_id
+        self.signal = signal
+        self.joint = joint
+        self.value = value
+
+
+class ProtocolEncodeError(FrameError):
+    """A value cannot be encoded: not finite, outside the joint limits or the DBC range."""
+
+
+class ProtocolDecodeError(FrameError):
+    """A received frame is not a valid frame of the protocol."""

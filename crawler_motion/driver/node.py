@@ -22,21 +22,14 @@ from __future__ import annotations
 
 import json
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import can
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from lifecycle_msgs.srv import ChangeState
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    SetParametersResult,
-)
-from rclpy._rclpy_pybind11 import RCLError
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
@@ -47,23 +40,16 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, String
 from std_srvs.srv import Trigger
 
+from crawler_motion.canbus.bus import make_bus_factory
 from crawler_motion.canbus.protocol import MotorProtocol
-from crawler_motion.driver.core import (
-    ERROR,
-    FILE_PARAMETERS,
-    PARAMETER_SPECS,
-    PARAMETERS,
-    WARN,
-    DriverCore,
-    DriverSettings,
-    StatusEntry,
-    default_files,
-    make_bus_factory,
-    validate_parameter,
-    validate_parameters,
-)
+from crawler_motion.driver.core import DriverCore
+from crawler_motion.driver.diagnostics import StatusEntry, unconfigured_entry
+from crawler_motion.driver.rclpy_workarounds import guard_change_state, publish_unless_shut_down
+from crawler_motion.driver.settings import PARAMETERS, DriverSettings, default_files
 from crawler_motion.errors import ConfigError, CrawlerMotionError, ProtocolError
 from crawler_motion.model.config import load_config
+from crawler_motion.runtime.parameters import validate_parameters
+from crawler_motion.runtime.ros_parameters import descriptor
 from crawler_motion.runtime.ticker import set_process_priority
 
 NODE_NAME = "driver"
@@ -72,22 +58,49 @@ N_JOINTS = 12
 COMMAND_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 #: Period of the check for changed diagnostic levels, published at once when one changed [s].
 LEVEL_WATCH_PERIOD = 0.05
+SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 
 
-def _descriptor(name: str) -> ParameterDescriptor:
-    spec = PARAMETER_SPECS[name]
-    descriptor = ParameterDescriptor(name=name, description=spec.description,
-                                     read_only=spec.read_only)
-    if spec.choices:
-        descriptor.additional_constraints = f"one of {list(spec.choices)}"
-    if spec.minimum is not None and spec.maximum is not None:
-        if isinstance(spec.default, float):
-            descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(spec.minimum), to_value=float(spec.maximum), step=0.0)]
+def load_protocol(values: Mapping[str, Any]) -> MotorProtocol:
+    """The motor protocol of the file parameters, checked against the robot's 12 joints."""
+    config = load_config(values["config_file"])
+    joints = config.robot.joint_names
+    if len(joints) != N_JOINTS:
+        raise ConfigError(f"{values['config_file']} gives {len(joints)} joints; the "
+                          f"motor manager drives {N_JOINTS}")
+    protocol = MotorProtocol.from_config(config.robot, values["dbc_file"], values["axes_file"])
+    if protocol.joint_names != joints or protocol.n_axes != N_JOINTS:
+        raise ProtocolError(f"the protocol drives {list(protocol.joint_names)}, the "
+                            f"robot has {list(joints)}")
+    return protocol
+
+
+def apply_priority(priority: int, logger: Any) -> None:
+    """Run the process at SCHED_FIFO ``priority`` (0: unchanged); logs what happened.
+
+    Every thread of the process, and those created later, inherit it.
+    """
+    if priority:
+        problem = set_process_priority(priority)
+        if problem:
+            logger.warning(f"{problem}; running at normal priority")
         else:
-            descriptor.integer_range = [IntegerRange(
-                from_value=int(spec.minimum), to_value=int(spec.maximum), step=1)]
-    return descriptor
+            logger.info(f"process at SCHED_FIFO priority {priority}")
+
+
+def diagnostic_array(entries: list[StatusEntry], node_name: str,
+                     lifecycle_state: str) -> DiagnosticArray:
+    """The /diagnostics message of ``entries`` (unstamped); the manager's entry also carries
+    the lifecycle state."""
+    array = DiagnosticArray()
+    for entry in entries:
+        values = [KeyValue(key="lifecycle_state", value=lifecycle_state)] if (
+            entry.name == "motor manager") else []
+        values.extend(KeyValue(key=k, value=v) for k, v in entry.values)
+        array.status.append(DiagnosticStatus(
+            level=bytes([entry.level]), name=f"{node_name}: {entry.name}",
+            message=entry.message, hardware_id=HARDWARE_ID, values=values))
+    return array
 
 
 class DriverNode(LifecycleNode):
@@ -96,32 +109,16 @@ class DriverNode(LifecycleNode):
     def __init__(self, node_name: str = NODE_NAME, *,
                  bus_factory: Callable[[], can.BusABC] | None = None, **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
-        self._guard_change_state()
+        guard_change_state(self, self.get_logger().error)
         self._bus_factory = bus_factory
-        files = default_files()
-        for spec in PARAMETERS:
-            default = files[spec.name] if spec.name in FILE_PARAMETERS else spec.default
-            self.declare_parameter(spec.name, default, _descriptor(spec.name))
-        reasons = validate_parameters(self._values())
-        if reasons:
-            raise ConfigError(f"invalid driver parameters: {'; '.join(reasons)}")
-        priority = self._value("priority")
-        if priority:  # every thread of the process, and those created later, inherit it
-            problem = set_process_priority(priority)
-            if problem:
-                self.get_logger().warning(f"{problem}; running at normal priority")
-            else:
-                self.get_logger().info(f"process at SCHED_FIFO priority {priority}")
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.add_post_set_parameters_callback(self._after_set_parameters)
-
+        self._declare_parameters()
         self._core: DriverCore | None = None
         self._joint_names: tuple[str, ...] = ()
+        self._label = "unconfigured"  # the lifecycle state, as the transitions left it
         self._latched = ""  # ESTOP latched while no core exists (kept across cleanup)
         self._dropped_unconfigured = 0
         self._configure_error = ""
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-
         self._joint_state_pub = self.create_publisher(JointState, "joint_states", 10)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(JointState, "joint_commands", self._on_joint_commands,
@@ -137,12 +134,22 @@ class DriverNode(LifecycleNode):
         # pauses on ERROR, and a fault must not wait up to diagnostics_period to reach it
         self._published_levels: tuple[tuple[str, int], ...] = ()
         self.create_timer(LEVEL_WATCH_PERIOD, self._watch_levels, clock=self._steady)
-
-        if self._value("autostart"):
-            if self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
-                self.trigger_activate()
+        if self._value("autostart") and self.trigger_configure() == SUCCESS:
+            self.trigger_activate()
 
     # ---- parameters ------------------------------------------------------------------------
+
+    def _declare_parameters(self) -> None:
+        files = default_files()
+        for spec in PARAMETERS:
+            self.declare_parameter(spec.name, files.get(spec.name, spec.default),
+                                   descriptor(spec))
+        reasons = validate_parameters(PARAMETERS, self._values())
+        if reasons:
+            raise ConfigError(f"invalid driver parameters: {'; '.join(reasons)}")
+        apply_priority(self._value("priority"), self.get_logger())
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._after_set_parameters)
 
     def _value(self, name: str) -> Any:
         return self.get_parameter(name).value
@@ -151,15 +158,15 @@ class DriverNode(LifecycleNode):
         return {spec.name: self._value(spec.name) for spec in PARAMETERS}
 
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
-        reasons = [reason for p in parameters if p.name in PARAMETER_SPECS
-                   and (reason := validate_parameter(p.name, p.value)) is not None]
+        names = {spec.name for spec in PARAMETERS}
+        reasons = validate_parameters(PARAMETERS, {p.name: p.value for p in parameters
+                                                   if p.name in names})
         return SetParametersResult(successful=not reasons, reason="; ".join(reasons))
 
     def _after_set_parameters(self, parameters: list[Parameter]) -> None:
-        names = {p.name for p in parameters}
         if self._core is not None:
             self._core.update_settings(DriverSettings.from_parameters(self._values()))
-        if "diagnostics_period" in names:
+        if "diagnostics_period" in {p.name for p in parameters}:
             self.destroy_timer(self._diagnostics_timer)
             self._diagnostics_timer = self.create_timer(
                 self._value("diagnostics_period"), self._publish_diagnostics,
@@ -172,16 +179,7 @@ class DriverNode(LifecycleNode):
         values = self._values()
         core = None
         try:
-            config = load_config(values["config_file"])
-            joints = config.robot.joint_names
-            if len(joints) != N_JOINTS:
-                raise ConfigError(f"{values['config_file']} gives {len(joints)} joints; the "
-                                  f"motor manager drives {N_JOINTS}")
-            protocol = MotorProtocol.from_config(config.robot, values["dbc_file"],
-                                                 values["axes_file"])
-            if protocol.joint_names != joints or protocol.n_axes != N_JOINTS:
-                raise ProtocolError(f"the protocol drives {list(protocol.joint_names)}, the "
-                                    f"robot has {list(joints)}")
+            protocol = load_protocol(values)
             factory = self._bus_factory or make_bus_factory(
                 values["can_interface"], values["can_channel"], values["can_port"],
                 values["bitrate"])
@@ -194,96 +192,65 @@ class DriverNode(LifecycleNode):
                 core.close()
             self._configure_error = f"configure failed: {exc}"
             self.get_logger().error(self._configure_error)
-            return TransitionCallbackReturn.FAILURE
+            return FAILURE
         self._configure_error = ""
-        self._joint_names = joints
+        self._joint_names = protocol.joint_names
         self._core = core
         core.start()
         if self._latched:
             core.estop(self._latched)
         where = "injected bus" if self._bus_factory else (
             f"{values['can_interface']} {values['can_channel']}")
-        self.get_logger().info(f"configured: {len(joints)} joints on {where}")
-        return TransitionCallbackReturn.SUCCESS
+        self.get_logger().info(f"configured: {len(self._joint_names)} joints on {where}")
+        self._label = "inactive"
+        return SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Send ``enable`` and start forwarding joint_commands."""
         if self._core is None:
-            return TransitionCallbackReturn.FAILURE
+            return FAILURE
         ok, message = self._core.activate()
         if not ok:
             self.get_logger().error(f"activate refused: {message}")
-            return TransitionCallbackReturn.FAILURE
+            return FAILURE
         self.get_logger().info(f"active: {message}")
-        return TransitionCallbackReturn.SUCCESS
+        self._label = "active"
+        return SUCCESS
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Send ``on_deactivate`` (hold or disable) and stop forwarding."""
         if self._core is not None:
             self.get_logger().info(f"inactive: {self._core.deactivate()}")
-        return TransitionCallbackReturn.SUCCESS
+        self._label = "inactive"
+        return SUCCESS
 
     def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Close the bus (an ESTOP latch survives)."""
-        self._close_core()
-        return TransitionCallbackReturn.SUCCESS
+        return self._close_core("unconfigured")
 
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Deactivate if active, then close the bus."""
-        self._close_core()
-        return TransitionCallbackReturn.SUCCESS
+        return self._close_core("finalized")
 
     def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Close the bus and go back to unconfigured."""
-        self._close_core()
-        return TransitionCallbackReturn.SUCCESS
+        return self._close_core("unconfigured")
 
-    def _close_core(self) -> None:
+    def _close_core(self, label: str) -> TransitionCallbackReturn:
+        self._label = label
         core, self._core = self._core, None
-        if core is None:
-            return
-        if core.active:
-            core.deactivate()
-        if core.estop_latched:
-            self._latched = core.estop_reason
-        core.close()
+        if core is not None:
+            if core.active:
+                core.deactivate()
+            if core.estop_latched:
+                self._latched = core.estop_reason
+            core.close()
+        return SUCCESS
 
     def destroy_node(self) -> None:
         """Close the bus (deactivating first), then destroy the node."""
-        self._close_core()
+        self._close_core(self._label)
         super().destroy_node()
-
-    def _guard_change_state(self) -> None:
-        """Answer an invalid ``change_state`` request with success=False instead of crashing.
-
-        rclpy Jazzy raises RCLError from the change_state service for a transition that is not
-        valid in the current state, which ends ``rclpy.spin`` and with it this process
-        (ros2/rclpy#1209, fixed upstream by ros2/rclpy#1319). No-op if the service is absent.
-        """
-        service = getattr(self, "_service_change_state", None)
-        if service is None:
-            return
-        handler = service.callback
-
-        def guarded(request: ChangeState.Request,
-                    response: ChangeState.Response) -> ChangeState.Response:
-            try:
-                return handler(request, response)
-            except RCLError as exc:
-                self.get_logger().error(f"change_state refused (transition "
-                                        f"{request.transition.id} "
-                                        f"{request.transition.label!r}): {exc}")
-                response.success = False
-                return response
-
-        service.callback = guarded
-
-    def _lifecycle_label(self) -> str:
-        machine = getattr(self, "_state_machine", None)
-        try:
-            return str(machine.current_state[1])
-        except Exception:
-            return "unknown"
 
     # ---- commands and safety ---------------------------------------------------------------
 
@@ -299,13 +266,12 @@ class DriverNode(LifecycleNode):
 
     def _latch(self, reason: str) -> bool:
         """Latch ESTOP now; True when the e-stop frame went out within this call."""
-        core = self._core
-        if core is None:
-            if not self._latched:
-                self.get_logger().error(f"ESTOP latched (no bus open): {reason}")
-            self._latched = reason
-            return False
-        return core.estop(reason)
+        if self._core is not None:
+            return self._core.estop(reason)
+        if not self._latched:
+            self.get_logger().error(f"ESTOP latched (no bus open): {reason}")
+        self._latched = reason
+        return False
 
     def _on_estop_topic(self, msg: Bool) -> None:
         if msg.data:
@@ -331,75 +297,49 @@ class DriverNode(LifecycleNode):
             "e-stop frame sent" if sent else "e-stop frame queued (bus not open or down)")
         return response
 
+    def _answer(self, service: str, response: Trigger.Response,
+                result: tuple[bool, str]) -> Trigger.Response:
+        response.success, response.message = result
+        self.get_logger().info(f"~/{service}: {response.message}")
+        return response
+
     def _on_reset(self, request: Trigger.Request,
                   response: Trigger.Response) -> Trigger.Response:
         self._latched = ""
-        if self._core is None:
-            response.success, response.message = True, "latch cleared (not configured)"
-        else:
-            response.success, response.message = self._core.reset()
-        self.get_logger().info(f"~/reset: {response.message}")
-        return response
+        return self._answer("reset", response, (True, "latch cleared (not configured)")
+                            if self._core is None else self._core.reset())
 
     def _on_enable(self, request: Trigger.Request,
                    response: Trigger.Response) -> Trigger.Response:
-        if self._core is None:
-            response.success, response.message = False, "not configured"
-        else:
-            response.success, response.message = self._core.enable()
-        self.get_logger().info(f"~/enable: {response.message}")
-        return response
+        return self._answer("enable", response, (False, "not configured")
+                            if self._core is None else self._core.enable())
 
     # ---- publishing ------------------------------------------------------------------------
 
     def _publish_joint_state(self, positions: np.ndarray) -> None:
         """Publish one measured joint state (called from the core's receive thread)."""
-        if not self.context.ok():  # shutting down (Ctrl-C): the bus closes right after
-            return
-        msg = JointState()
-        msg.header.stamp = self.get_clock().now().to_msg()
-        msg.name = list(self._joint_names)
-        msg.position = positions.tolist()
-        try:
-            self._joint_state_pub.publish(msg)
-        except RCLError:
-            if self.context.ok():
-                raise
+        def make() -> JointState:
+            msg = JointState(name=list(self._joint_names), position=positions.tolist())
+            msg.header.stamp = self.get_clock().now().to_msg()
+            return msg
+
+        publish_unless_shut_down(self._joint_state_pub, make, self.context)
 
     def _watch_levels(self) -> None:
-        core = self._core
-        if core is None:
-            return
-        entries = core.status()
-        if tuple((e.name, e.level) for e in entries) != self._published_levels:
-            self._publish_diagnostics(entries)
+        if self._core is not None:
+            entries = self._core.status()
+            if tuple((e.name, e.level) for e in entries) != self._published_levels:
+                self._publish_diagnostics(entries)
 
     def _publish_diagnostics(self, entries: list[StatusEntry] | None = None) -> None:
-        core = self._core
-        label = self._lifecycle_label()
-        if core is None:
-            message = f"{label}: not configured"
-            level = WARN
-            if self._configure_error:
-                level, message = ERROR, f"{message}; {self._configure_error}"
-            if self._latched:
-                level, message = ERROR, f"{message}; ESTOP latched ({self._latched})"
-            entries = [StatusEntry("motor manager", level, message,
-                                   (("estop_latched", str(bool(self._latched))),
-                                    ("dropped_unconfigured",
-                                     str(self._dropped_unconfigured))))]
+        if self._core is None:
+            entries = [unconfigured_entry(self._label, self._configure_error, self._latched,
+                                          self._dropped_unconfigured)]
         elif entries is None:
-            entries = core.status()
+            entries = self._core.status()
         self._published_levels = tuple((e.name, e.level) for e in entries)
-        array = DiagnosticArray()
+        array = diagnostic_array(entries, self.get_name(), self._label)
         array.header.stamp = self.get_clock().now().to_msg()
-        for entry in entries:
-            values = [KeyValue(key="lifecycle_state", value=label)] if (
-                entry.name == "motor manager") else []
-            values.extend(KeyValue(key=k, value=v) for k, v in entry.values)
-            array.status.append(DiagnosticStatus(
-                level=bytes([entry.level]), name=f"{self.get_name()}: {entry.name}",
-                message=entry.message, hardware_id=HARDWARE_ID, values=values))
         self._diagnostics_pub.publish(array)
 
 

@@ -21,6 +21,8 @@ from crawler_motion.errors import ConfigError
 PACKAGE = "crawler_motion"
 JOINT_KINDS: tuple[str, ...] = ("root", "shoulder", "knee")
 DEFAULT_LEGS: tuple[str, ...] = ("lf", "lb", "rb", "rf")
+#: The lift, arc and lower fractions of a profile must sum to 1 within this (rounding only).
+FRACTION_SUM_TOL = 1e-9
 
 
 def config_dir() -> Path:
@@ -131,11 +133,17 @@ class RobotConfig:
 
 @dataclass(frozen=True)
 class ProfileConfig:
-    """Time split of the swing and junction velocity ratios of one profile."""
+    """Time split of the swing and junction velocity ratios of one profile.
 
-    lift: float
-    arc: float
-    lower: float
+    The fractions are parts of the swing time (robot.yaml keys ``lift``, ``arc``, ``lower`` of
+    ``gait.profiles.<name>``); not to be confused with the heights ``lift`` and ``arc`` [m] of
+    `GaitConfig` and `WalkParams`. ``v_b`` / ``v_d`` are the junction speeds at B / D in units
+    of the mean vertical speed of the lift / lower segment.
+    """
+
+    lift_fraction: float
+    arc_fraction: float
+    lower_fraction: float
     v_b: float
     v_d: float
 
@@ -150,6 +158,9 @@ class GaitConfig:
     lift: float
     arc: float
     swing_time: float
+    #: Stance time [s] of the single-leg step cycle (the default of ``crawler-motion
+    #: trajectory``, the comparison plots); walks (planner, ``crawler-motion walk``) default
+    #: to ``(groups - 1) x swing_time`` of their gait instead (`gait.validate_params`).
     stance_time: float
     max_stride: float
     max_turn: float
@@ -177,6 +188,26 @@ def _per_leg(section: Mapping[str, Any], legs: tuple[str, ...], what: str) -> li
     return [section[leg] for leg in legs]
 
 
+def _parse_limits(limits: Mapping[str, Any], where: str) -> tuple[list[float], ...]:
+    """Lower and upper position [rad], velocity [rad/s] and effort [N m] limits per joint
+    kind, in `JOINT_KINDS` order."""
+    lower, upper, vel, eff = [], [], [], []
+    for kind in JOINT_KINDS:
+        lim = limits.get(kind)
+        if not isinstance(lim, Mapping):
+            raise ConfigError(f"{where}.{kind} missing (lower, upper, velocity, effort)")
+        lo = _number(lim.get("lower"), f"{where}.{kind}.lower")
+        hi = _number(lim.get("upper"), f"{where}.{kind}.upper")
+        if not -math.pi <= lo < hi <= math.pi:
+            raise ConfigError(f"{where}.{kind}: need -pi <= lower < upper <= pi, "
+                              f"got [{lo}, {hi}]")
+        lower.append(lo)
+        upper.append(hi)
+        vel.append(_positive(lim.get("velocity"), f"{where}.{kind}.velocity"))
+        eff.append(_positive(lim.get("effort"), f"{where}.{kind}.effort"))
+    return lower, upper, vel, eff
+
+
 def parse_robot(data: Mapping[str, Any], where: str = "robot") -> RobotConfig:
     """Validate the ``robot`` section of the YAML and build a `RobotConfig`."""
     legs_raw = data.get("legs", list(DEFAULT_LEGS))
@@ -200,21 +231,7 @@ def parse_robot(data: Mapping[str, Any], where: str = "robot") -> RobotConfig:
     knee_sign = np.array([1.0 if k == "up" else -1.0 for k in knees])
     links = _section(data, "links", where)
     l1, l2, l3 = (_positive(links.get(k), f"{where}.links.{k}") for k in ("l1", "l2", "l3"))
-    limits = _section(data, "limits", where)
-    lower, upper, vel, eff = [], [], [], []
-    for kind in JOINT_KINDS:
-        lim = limits.get(kind)
-        if not isinstance(lim, Mapping):
-            raise ConfigError(f"{where}.limits.{kind} missing (lower, upper, velocity, effort)")
-        lo = _number(lim.get("lower"), f"{where}.limits.{kind}.lower")
-        hi = _number(lim.get("upper"), f"{where}.limits.{kind}.upper")
-        if not -math.pi <= lo < hi <= math.pi:
-            raise ConfigError(f"{where}.limits.{kind}: need -pi <= lower < upper <= pi, "
-                              f"got [{lo}, {hi}]")
-        lower.append(lo)
-        upper.append(hi)
-        vel.append(_positive(lim.get("velocity"), f"{where}.limits.{kind}.velocity"))
-        eff.append(_positive(lim.get("effort"), f"{where}.limits.{kind}.effort"))
+    lower, upper, vel, eff = _parse_limits(_section(data, "limits", where), f"{where}.limits")
     stance = _section(data, "stance", where)
     reach = _positive(stance.get("reach"), f"{where}.stance.reach")
     height = _positive(stance.get("body_height"), f"{where}.stance.body_height")
@@ -264,12 +281,14 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
         values = {k: _number(prof.get(k), f"{where}.profiles.{name}.{k}")
                   for k in ("lift", "arc", "lower", "v_b", "v_d")}
         fractions = (values["lift"], values["arc"], values["lower"])
-        if min(fractions) <= 0 or abs(sum(fractions) - 1.0) > 1e-9:
+        if min(fractions) <= 0 or abs(sum(fractions) - 1.0) > FRACTION_SUM_TOL:
             raise ConfigError(f"{where}.profiles.{name}: lift + arc + lower must be positive "
                               f"fractions summing to 1, got {fractions}")
         if values["v_b"] < 0 or values["v_d"] < 0:
             raise ConfigError(f"{where}.profiles.{name}: v_b and v_d must be >= 0")
-        profiles[str(name)] = ProfileConfig(**values)
+        profiles[str(name)] = ProfileConfig(
+            lift_fraction=values["lift"], arc_fraction=values["arc"],
+            lower_fraction=values["lower"], v_b=values["v_b"], v_d=values["v_d"])
     for needed in ("rest", "smooth"):
         if needed not in profiles:
             raise ConfigError(f"{where}.profiles must define '{needed}'")
@@ -317,3 +336,47 @@ def load_config(path: str | Path | None = None) -> Config:
     robot = parse_robot(_section(data, "robot", str(file)), f"{file}: robot")
     gait = parse_gait(_section(data, "gait", str(file)), robot.legs, f"{file}: gait")
     return Config(robot=robot, gait=gait, source=str(file))
+
+
+@dataclass(frozen=True)
+class ScannerConfig:
+    """Mount and ray fan of the forward range scanner (section ``scanner`` of robot.yaml)."""
+
+    position: np.ndarray  # (3,) scanner_link origin in base_link [m]
+    rpy: np.ndarray  # (3,) roll, pitch, yaw of scanner_link in base_link [rad]
+    horizontal_fov: float  # [rad]
+    columns: int
+    vertical_fov: float  # [rad]
+    rows: int
+    max_range: float  # [m]
+    rate: float  # [Hz]
+
+
+def load_scanner(path: str | Path | None = None) -> ScannerConfig:
+    """Read and validate the ``scanner`` section of ``robot.yaml`` (default: the shipped one)."""
+    file = Path(path) if path is not None else config_path("robot.yaml")
+    try:
+        data = yaml.safe_load(file.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise ConfigError(f"cannot read the scanner section of {file}: {exc}") from exc
+    where = f"{file}: scanner"
+    sec = _section(data if isinstance(data, Mapping) else {}, "scanner", str(file))
+    vectors = {}
+    for key in ("position", "rpy"):
+        raw = sec.get(key)
+        if not isinstance(raw, list) or len(raw) != 3:
+            raise ConfigError(f"{where}.{key} must be [x, y, z] / [roll, pitch, yaw], got {raw!r}")
+        vectors[key] = np.array([_number(v, f"{where}.{key}") for v in raw])
+    counts = {}
+    for key in ("columns", "rows"):
+        raw = sec.get(key)
+        if isinstance(raw, bool) or not isinstance(raw, int) or not 1 <= raw <= 4096:
+            raise ConfigError(f"{where}.{key} must be an integer in [1, 4096], got {raw!r}")
+        counts[key] = raw
+    angles = {k: _number(sec.get(k), f"{where}.{k}") for k in ("horizontal_fov", "vertical_fov")}
+    for key, value in angles.items():
+        if not 0.0 <= value < math.pi:
+            raise ConfigError(f"{where}.{key} must be in [0, pi) rad, got {value}")
+    return ScannerConfig(position=vectors["position"], rpy=vectors["rpy"], **angles, **counts,
+                         max_range=_positive(sec.get("max_range"), f"{where}.max_range"),
+                         rate=_positive(sec.get("rate"), f"{where}.rate"))

@@ -13,19 +13,26 @@ Joint conventions (also used by the URDF and the driver):
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 import numpy as np
 
 from crawler_motion.errors import JointLimitError, KinematicsError, UnreachableError
 from crawler_motion.model.config import JOINT_KINDS, RobotConfig
 
 #: Relative slack on the workspace boundary that is attributed to rounding, not to the target.
-_REACH_EPS = 1e-12
+REACH_EPS = 1e-12
 #: IK angles this close outside a joint limit [rad] are rounding noise of the closed form (e.g.
 #: the IK of the FK of a pose at a limit) and are set onto the limit; farther out is an error.
-_LIMIT_EPS = 1e-9
+LIMIT_EPS = 1e-9
 #: Horizontal distance [m] of the foot from the root axis below which the root angle (IK) and
 #: the root rate (Jacobian) are undefined.
-_AXIS_EPS = 1e-9
+AXIS_EPS = 1e-9
+#: Smallest ``|l2 l3 sin(knee)|`` [m^2], the determinant of the shoulder/knee Jacobian, below
+#: which the leg counts as singular (knee straight) and its joint rates as undefined.
+SINGULAR_EPS = 1e-9
+
+_E = TypeVar("_E", bound=KinematicsError)
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
@@ -46,34 +53,43 @@ def _first(mask: np.ndarray) -> tuple[int, ...]:
     return tuple(int(i) for i in np.argwhere(mask)[0])
 
 
+def _at_sample(exc: _E, sample: tuple[int, ...] | None) -> _E:
+    """``exc`` with its ``sample`` attribute set: the index of the failing sample over the
+    leading (batch) dimensions of the input, None for an unbatched input."""
+    exc.sample = sample
+    return exc
+
+
 def check_limits(robot: RobotConfig, q: np.ndarray) -> None:
     """Raise `JointLimitError` naming the first leg/joint outside its limits."""
     arr = np.asarray(q, dtype=float)
     if not np.all(np.isfinite(arr)):
-        raise JointLimitError("joint angles contain NaN or inf")
+        raise _at_sample(JointLimitError("joint angles contain NaN or inf"), None)
     below = arr < robot.lower
     above = arr > robot.upper
     bad = below | above
     if np.any(bad):
         idx = _first(bad)
         leg, joint = idx[-2], idx[-1]
-        where = f" at sample {idx[:-2]}" if len(idx) > 2 else ""
+        sample = idx[:-2] if len(idx) > 2 else None
+        where = f" at sample {sample}" if sample is not None else ""
         lo, hi = robot.lower[joint], robot.upper[joint]
         side, excess = ("below", lo - arr[idx]) if below[idx] else ("above", arr[idx] - hi)
-        raise JointLimitError(
+        raise _at_sample(JointLimitError(
             f"leg {robot.legs[leg]} {JOINT_KINDS[joint]} joint: {arr[idx]:.4f} rad is outside "
             f"its limits [{lo:.4f}, {hi:.4f}] rad ({excess:.3g} rad {side}){where} "
-            f"({int(bad.sum())} violation(s) in all)")
+            f"({int(bad.sum())} violation(s) in all)"), sample)
 
 
 def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True) -> np.ndarray:
     """Joint angles ``(..., n_legs, 3)`` [rad] placing every foot at ``feet`` [m].
 
     Raises `UnreachableError` for a target outside a leg's workspace and, with ``check``,
-    `JointLimitError` for an angle outside the limits. Never returns NaN, never clips (angles
-    within ``_LIMIT_EPS`` of a limit are rounding noise and are returned exactly on it). The
-    solution keeps the foot on the leg's side of the root axis (r > 0) with the knee sign given
-    by ``robot.knee_sign``; angles are returned in (-pi, pi].
+    `JointLimitError` for an angle outside the limits (both with ``sample``: the index of the
+    first failing sample over the leading dimensions, None for one unbatched pose). Never
+    returns NaN, never clips (angles within ``LIMIT_EPS`` of a limit are rounding noise and are
+    returned exactly on it). The solution keeps the foot on the leg's side of the root axis
+    (r > 0) with the knee sign given by ``robot.knee_sign``; angles are returned in (-pi, pi].
     """
     p = _as_feet(feet, robot.n_legs, "foot targets")
     q = p - robot.hips
@@ -84,23 +100,25 @@ def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True)
     l2, l3 = robot.l2, robot.l3
     d_max, d_min = l2 + l3, abs(l2 - l3)
     d = np.sqrt(d2)
-    bad = (d > d_max * (1 + _REACH_EPS)) | (d < d_min * (1 - _REACH_EPS)) | (r < _AXIS_EPS)
+    bad = (d > d_max * (1 + REACH_EPS)) | (d < d_min * (1 - REACH_EPS)) | (r < AXIS_EPS)
     if np.any(bad):
         idx = _first(bad)
         leg = idx[-1]
-        where = f" at sample {idx[:-1]}" if len(idx) > 1 else ""
+        sample = idx[:-1] if len(idx) > 1 else None
+        where = f" at sample {sample}" if sample is not None else ""
         target = np.array2string(p[idx], precision=4)
-        raise UnreachableError(
+        raise _at_sample(UnreachableError(
             f"leg {robot.legs[leg]}: foot target {target} m{where} is {d[idx]:.4f} m from the "
-            f"shoulder; reachable is [{d_min:.4f}, {d_max:.4f}] m (and off the root axis)")
+            f"shoulder; reachable is [{d_min:.4f}, {d_max:.4f}] m (and off the root axis)"),
+            sample)
     cos_knee = np.clip((d2 - l2 * l2 - l3 * l3) / (2 * l2 * l3), -1.0, 1.0)  # rounding only
     knee = robot.knee_sign * np.arccos(cos_knee)
     shoulder = _wrap(np.arctan2(w, u) + np.arctan2(l3 * np.sin(knee), l2 + l3 * np.cos(knee)))
     root = _wrap(np.arctan2(q[..., 1], q[..., 0]) - robot.neutral_yaw)
     angles = np.stack((root, shoulder, knee), axis=-1)
     lower, upper = robot.lower, robot.upper
-    angles = np.where((angles < lower) & (angles >= lower - _LIMIT_EPS), lower, angles)
-    angles = np.where((angles > upper) & (angles <= upper + _LIMIT_EPS), upper, angles)
+    angles = np.where((angles < lower) & (angles >= lower - LIMIT_EPS), lower, angles)
+    angles = np.where((angles > upper) & (angles <= upper + LIMIT_EPS), upper, angles)
     if check:
         check_limits(robot, angles)
     return angles
@@ -135,7 +153,7 @@ def joint_velocities(robot: RobotConfig, angles: np.ndarray, foot_velocity: np.n
     u = robot.l2 * np.cos(shoulder) + robot.l3 * np.cos(tibia)
     r = robot.l1 + u
     cy, sy = np.cos(yaw), np.sin(yaw)
-    if np.any(np.abs(r) < _AXIS_EPS):
+    if np.any(np.abs(r) < AXIS_EPS):
         raise KinematicsError("leg Jacobian is singular (foot on the root axis); "
                               "root rate undefined")
     r_dot = cy * v[..., 0] + sy * v[..., 1]
@@ -145,7 +163,7 @@ def joint_velocities(robot: RobotConfig, angles: np.ndarray, foot_velocity: np.n
     s23, c23 = np.sin(tibia), np.cos(tibia)
     l2, l3 = robot.l2, robot.l3
     det = l2 * l3 * np.sin(knee)
-    if np.any(np.abs(det) < 1e-9):
+    if np.any(np.abs(det) < SINGULAR_EPS):
         raise KinematicsError("leg Jacobian is singular (knee straight); joint rates undefined")
     # [u_dot, w_dot] = J [shoulder_dot, knee_dot]
     j11, j12 = -l2 * s2 - l3 * s23, l3 * s23

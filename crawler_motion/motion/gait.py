@@ -30,6 +30,12 @@ from crawler_motion.motion.trajectory import (
     rest_segment,
     swing_segments,
 )
+from crawler_motion.motion.walk_options import (
+    OPTIONS,
+    clearance_error,
+    stance_time_error,
+    stance_time_range,
+)
 
 #: Sampling period used to check a planned walk against the workspace and the limits [s].
 CHECK_PERIOD = 0.005
@@ -84,28 +90,27 @@ def validate_params(params: WalkParams, cfg: Config) -> WalkParams:
         if not lo <= value <= hi:
             raise GaitError(f"{name} = {value} {unit} is outside [{lo}, {hi}] {unit}")
 
-    in_range("stride", params.stride, 0.0, g.max_stride, "m")
-    in_range("turn", params.turn, -g.max_turn, g.max_turn, "rad")
-    in_range("lift", params.lift, 1e-3, g.max_clearance, "m")
-    in_range("arc", params.arc, 0.0, g.max_clearance - params.lift, "m")
+    for name in ("stride", "turn", "lift", "arc"):
+        in_range(name, getattr(params, name), *OPTIONS[name].range(cfg), OPTIONS[name].unit)
+    clearance = clearance_error(cfg, params.lift, params.arc)
+    if clearance is not None:
+        raise GaitError(clearance)
     if params.profile in g.profiles and g.profiles[params.profile].v_b > 0 and (
             params.arc < MIN_ARC_RATIO * params.lift):
         raise GaitError(f"arc = {params.arc} m: the {params.profile} profile reaches B still "
                         f"rising and needs arc >= {MIN_ARC_RATIO} x lift = "
                         f"{MIN_ARC_RATIO * params.lift:.4g} m to stay above B on the arc")
-    in_range("swing_time", params.swing_time, *g.swing_time_range, "s")
-    n = len(g.gaits[params.gait])
-    minimum = (n - 1) * params.swing_time
-    stance = minimum if params.stance_time is None else params.stance_time
+    in_range("swing_time", params.swing_time, *OPTIONS["swing_time"].range(cfg), "s")
+    stance = stance_time_range(cfg, params.gait, params.swing_time)[0] if (
+        params.stance_time is None) else params.stance_time
     if isinstance(stance, bool) or not isinstance(stance, (int, float)) or not math.isfinite(
             stance):
         raise GaitError(f"stance_time must be a finite number, got {stance!r}")
-    if stance < minimum - 1e-12 or stance > 10 * minimum:
-        raise GaitError(f"stance_time = {stance} s: the {params.gait} gait ({n} groups) needs "
-                        f"stance_time in [{minimum:g}, {10 * minimum:g}] s "
-                        f"(>= {n - 1} x swing_time)")
+    stance_error = stance_time_error(cfg, params.gait, params.swing_time, stance)
+    if stance_error is not None:
+        raise GaitError(stance_error)
     height = cfg.robot.body_height if params.body_height is None else params.body_height
-    lo, hi = cfg.robot.body_height_range
+    lo, hi = OPTIONS["body_height"].range(cfg)
     if not (isinstance(height, (int, float)) and math.isfinite(height) and lo <= height <= hi):
         raise GaitError(f"body_height = {height} m is outside [{lo}, {hi}] m")
     return replace(params, stance_time=float(stance), body_height=float(height))
@@ -311,11 +316,9 @@ def check_trajectories(robot: RobotConfig, legs: tuple[Piecewise, ...], what: st
         rates = np.abs(joint_velocities(robot, q, np.stack([v for _, v, _ in states], axis=1)))
     except KinematicsError as exc:
         msg = str(exc)
-        marker = " at sample ("
-        if marker in msg:
-            idx = int(msg.split(marker, 1)[1].split(",", 1)[0].rstrip(")"))
-            msg = msg.replace(msg[msg.index(marker):msg.index(")", msg.index(marker)) + 1],
-                              f" at t = {times[idx]:.3f} s")
+        sample = exc.sample
+        if sample:  # the message names the sample; name its time instead
+            msg = msg.replace(f" at sample {sample}", f" at t = {times[sample[0]]:.3f} s", 1)
         raise GaitError(f"{what} cannot be executed: {msg}") from exc
     over = rates / np.broadcast_to(robot.velocity, rates.shape[-1:])
     worst = np.unravel_index(int(np.argmax(over)), over.shape)

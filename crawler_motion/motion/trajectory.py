@@ -220,9 +220,9 @@ def swing_segments(a: np.ndarray, e: np.ndarray, shape: SwingShape) -> list[Segm
     if shape.lift <= 0 or shape.arc < 0:
         raise TrajectoryError(f"need lift > 0 and arc >= 0 m, got {shape.lift}, {shape.arc}")
     prof = shape.profile
-    t_lift = prof.lift * shape.swing_time
-    t_arc = prof.arc * shape.swing_time
-    t_lower = prof.lower * shape.swing_time
+    t_lift = prof.lift_fraction * shape.swing_time
+    t_arc = prof.arc_fraction * shape.swing_time
+    t_lower = prof.lower_fraction * shape.swing_time
     b = a + np.array([0.0, 0.0, shape.lift])
     d = e + np.array([0.0, 0.0, shape.lift])
     v_b = np.array([0.0, 0.0, prof.v_b * shape.lift / t_lift])

@@ -1,4 +1,4 @@
-"""The planner node: a thin rclpy shell around `planner_core.PlannerCore`.
+"""The planner node: a thin rclpy shell around `planner.core.PlannerCore`.
 
 Subscribes ``cmd_vel`` (geometry_msgs/Twist; linear.x, linear.y, angular.z used),
 ``gait_command`` (std_msgs/String, one JSON object, see `commands.parse_gait_command`),
@@ -11,17 +11,18 @@ transient local) on every change and at least once a second.
 
 Joint commands are published from a `ticker.Ticker` thread on the steady clock, not from an
 rclpy timer: the executor also runs every callback, and a busy executor delays or skips timer
-ticks. After each tick it wakes a second thread that plans the next gait slot ahead of its
-boundary (`PlannerCore.ahead_job`, computed without the lock), so no tick waits for planning.
-Ticks skipped because the process was starved are counted (``missed_ticks`` in the status; a
-message is logged).
+ticks. After each tick it wakes a second thread (`planning_thread.AheadPlanner`) that plans
+the next gait slot ahead of its boundary (`PlannerCore.ahead_job`, computed without the lock),
+so no tick waits for planning. Ticks skipped because the process was starved are counted
+(``missed_ticks`` in the status; a message is logged).
 
-Parameters are validated by `commands.validate_parameters`, at start-up and on every change
-(refused with the reason). ``config_file`` is read-only; a new ``rate`` changes the period of
-the running timer; new gait defaults apply to the next walk or stand, not to a walk in progress.
-All callbacks share the node's default (mutually exclusive) callback group and a lock around
-the core, so the node is also safe under a MultiThreadedExecutor and with `set_parameters`
-called from another thread. Spin it single-threaded (as `main` does).
+The parameters are the `ParamSpec`s of `planner.parameters`, validated by
+`planner_settings` at start-up and on every change (refused with the reason). ``config_file``
+and ``tick_priority`` are read-only; a new ``rate`` changes the period of the ticker; new gait
+defaults apply to the next walk or stand, not to a walk in progress. All callbacks share the
+node's default (mutually exclusive) callback group and a lock around the core, so the node is
+also safe under a MultiThreadedExecutor and with `set_parameters` called from another thread.
+Spin it single-threaded (as `main` does).
 """
 
 from __future__ import annotations
@@ -35,13 +36,7 @@ from typing import Any
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Twist
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    ParameterType,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
@@ -52,16 +47,20 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 from crawler_motion.errors import CommandError, CrawlerMotionError
-from crawler_motion.model.config import config_path, load_config
-from crawler_motion.planner.commands import (
-    PlannerSettings,
-    default_parameters,
-    parameter_ranges,
-    validate_joint_state,
-    validate_parameters,
-)
+from crawler_motion.model.config import Config, config_path, load_config
+from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.planner.core import PlannerCore
-from crawler_motion.runtime.ticker import Ticker, check_priority, set_process_priority
+from crawler_motion.planner.parameters import (
+    PlannerSettings,
+    config_file_spec,
+    planner_parameters,
+    planner_settings,
+)
+from crawler_motion.planner.planning_thread import AheadPlanner
+from crawler_motion.runtime.log import Severity, log
+from crawler_motion.runtime.parameters import ParamSpec
+from crawler_motion.runtime.ros_parameters import descriptor
+from crawler_motion.runtime.ticker import Ticker, set_process_priority
 
 #: Python thread switch interval of the planner process [s] (the default is 5 ms).
 GIL_SWITCH_INTERVAL = 0.0005
@@ -69,22 +68,66 @@ GIL_SWITCH_INTERVAL = 0.0005
 STATUS_PERIOD = 1.0
 #: Identical warnings are logged at most once per this many seconds.
 LOG_REPEAT_PERIOD = 2.0
-_DESCRIPTIONS = {
-    "rate": "joint_commands rate [Hz]; a change applies to the running timer",
-    "cmd_vel_timeout": "a cmd_vel walk stops into standing after this long without a twist [s]",
-    "fault_hardware_id": "hardware_id of the motor manager in /diagnostics (ERROR pauses)",
-    "gait": "default gait of a new walk",
-    "profile": "default swing profile of a new walk",
-    "stride": "default stride of a new walk [m]",
-    "lift": "default lift of a new walk [m]",
-    "arc": "default arc (apex above the lift) of a new walk [m]",
-    "swing_time": "default swing time of a new walk [s]",
-    "body_height": "default standing body height (stand without body_height) [m]",
-}
+#: Distinct messages remembered for `LOG_REPEAT_PERIOD` (the memory is cleared beyond).
+LOG_REPEAT_MEMORY = 256
+#: How long `destroy_node` waits for each of the node's threads [s].
+THREAD_JOIN_TIMEOUT = 2.0
 
 
 def _level(value: Any) -> int:
+    """A DiagnosticStatus level (a ``bytes`` of one byte in rclpy messages) as an int."""
     return value[0] if isinstance(value, (bytes, bytearray)) and value else int(value or 0)
+
+
+def _severity(level: str) -> Severity:
+    """The `Severity` of a core event level (``info``, ``warn`` or ``error``)."""
+    return Severity.WARNING if level == "warn" else Severity(level)
+
+
+class RepeatFilter:
+    """Lets one message through at most once per ``period`` [s] (monotonic time)."""
+
+    def __init__(self, period: float) -> None:
+        self.period = period
+        self._last: dict[str, float] = {}
+
+    def admit(self, message: str, now: float) -> bool:
+        """True if ``message`` was not let through during the last ``period``."""
+        last = self._last.get(message)
+        if last is not None and now - last < self.period:
+            return False
+        if len(self._last) >= LOG_REPEAT_MEMORY:
+            self._last.clear()
+        self._last[message] = now
+        return True
+
+
+class FaultLevels:
+    """The latest /diagnostics level of each status of the motor manager, and the fault."""
+
+    def __init__(self) -> None:
+        self._levels: dict[str, int] = {}
+
+    def clear(self) -> None:
+        """Forget every status (the watched hardware_id changed)."""
+        self._levels.clear()
+
+    def update(self, statuses: list[DiagnosticStatus], hardware_id: str) -> tuple[bool, str]:
+        """Record ``statuses`` of ``hardware_id`` (STALE ignored); returns (faulted, reason).
+
+        ``reason`` joins the ERROR statuses of this message ("" if none is new here).
+        """
+        error = _level(DiagnosticStatus.ERROR)
+        reasons = []
+        for status in statuses:
+            level = _level(status.level)
+            if status.hardware_id != hardware_id or level == _level(DiagnosticStatus.STALE):
+                continue
+            self._levels[status.name] = level
+            if level >= error:
+                reasons.append(f"{status.name}: {status.message}")
+        faulted = any(level >= error for level in self._levels.values())
+        return faulted, "; ".join(reasons)
 
 
 class PlannerNode(Node):
@@ -93,58 +136,54 @@ class PlannerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("planner", **kwargs)
         self._lock = threading.Lock()
-        shipped = str(config_path("robot.yaml"))
-        config_file = self.declare_parameter(
-            "config_file", shipped,
-            ParameterDescriptor(type=ParameterType.PARAMETER_STRING, read_only=True,
-                                description="robot.yaml (geometry, limits, gait ranges)"),
-        ).value
-        self.cfg = load_config(config_file)
-        ranges = parameter_ranges(self.cfg)
-        for name, default in default_parameters(self.cfg, config_file).items():
-            if name == "config_file":
-                continue
-            descriptor = ParameterDescriptor(description=_DESCRIPTIONS[name])
-            if name in ranges:
-                descriptor.type = ParameterType.PARAMETER_DOUBLE
-                lo, hi = ranges[name]
-                descriptor.floating_point_range = [
-                    FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
-                default = float(default)
-            else:
-                descriptor.type = ParameterType.PARAMETER_STRING
-                if name == "gait":
-                    descriptor.additional_constraints = f"one of {sorted(self.cfg.gait.gaits)}"
-                elif name == "profile":
-                    descriptor.additional_constraints = (
-                        f"one of {sorted(self.cfg.gait.profiles)}")
-            self.declare_parameter(name, default, descriptor)
-        priority = self.declare_parameter(
-            "tick_priority", 0,
-            ParameterDescriptor(type=ParameterType.PARAMETER_INTEGER, read_only=True,
-                                integer_range=[IntegerRange(from_value=0, to_value=99, step=1)],
-                                description="0: normal scheduling; 1-99: SCHED_FIFO priority "
-                                            "of the tick thread, the rest of the process one "
-                                            "below (needs CAP_SYS_NICE)"),
-        ).value
-        try:
-            check_priority(priority)
-        except ValueError as exc:
-            raise CommandError(str(exc)) from None
+        self.cfg, self._specs = self._declare_parameters()
+        settings = planner_settings(self._specs, self._parameter_values(), self.cfg)
+        priority = settings.tick_priority
         # the process one below the tick thread: a thread holding the GIL (the executor, the
         # planning thread) must not be preempted by ordinary processes while a tick waits
-        process_error = set_process_priority(max(0, priority - 1)) if priority > 1 else ""
-        settings = validate_parameters(self._parameter_values(), self.cfg)
+        process_error = set_process_priority(priority - 1) if priority > 1 else ""
         self.core = PlannerCore(self.cfg, settings.rate, defaults=settings.defaults,
                                 cmd_vel_timeout=settings.cmd_vel_timeout)
         self._settings = settings
-        self._joint_names = list(self.cfg.robot.joint_names)
-        self._diag_levels: dict[str, int] = {}
-        self._logged: dict[str, float] = {}
+        self._faults = FaultLevels()
+        self._repeats = RepeatFilter(LOG_REPEAT_PERIOD)
         self._status_revision = -1
+        self._missed_logged = 0
+        self._joint_names = list(self.cfg.robot.joint_names)
         self._msg = JointState()
         self._msg.name = list(self._joint_names)
+        self._create_interfaces()
+        self._ahead = AheadPlanner(self.core, self._lock, self._report_failure)
+        self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._ahead.wake,
+                              name="planner-ticker", priority=priority)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._after_set_parameters)
+        self.get_logger().info(
+            f"planner ready: {self.cfg.source}, {settings.rate:g} Hz, gait "
+            f"{settings.defaults.gait}/{settings.defaults.profile}; IDLE until 'stand'")
+        self._publish_status()
+        self._ahead.start()
+        self._ticker.start()
+        self._report_priority(priority, self._ticker.priority_error or process_error)
 
+    def destroy_node(self) -> None:
+        """Stop the ticker and planning threads, then destroy the node."""
+        self._ticker.stop(timeout=THREAD_JOIN_TIMEOUT)
+        self._ahead.stop(THREAD_JOIN_TIMEOUT)
+        super().destroy_node()
+
+    # ----------------------------------------------------------------- set-up
+    def _declare_parameters(self) -> tuple[Config, tuple[ParamSpec, ...]]:
+        """Declare ``config_file``, load it, then declare the parameters it bounds."""
+        spec = config_file_spec(str(config_path("robot.yaml")))
+        config_file = self.declare_parameter(spec.name, spec.default, descriptor(spec)).value
+        cfg = load_config(config_file)
+        specs = planner_parameters(cfg, config_file)
+        for spec in specs[1:]:
+            self.declare_parameter(spec.name, spec.default, descriptor(spec))
+        return cfg, specs
+
+    def _create_interfaces(self) -> None:
         self._pub_joints = self.create_publisher(JointState, "joint_commands", 10)
         status_qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                                 durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -155,51 +194,27 @@ class PlannerNode(Node):
                                  qos_profile_sensor_data)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._wake_planning,
-                              name="planner-ticker", priority=priority)
-        self._missed_logged = 0
-        self._ahead_now = 0.0
-        self._ahead_wake = threading.Event()
-        self._ahead_stop = threading.Event()
-        self._ahead_thread = threading.Thread(target=self._ahead_loop, name="planner-ahead",
-                                              daemon=True)
         self._status_timer = self.create_timer(STATUS_PERIOD, self._publish_status,
                                                clock=steady)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.add_post_set_parameters_callback(self._after_set_parameters)
-        self.get_logger().info(
-            f"planner ready: {self.cfg.source}, {settings.rate:g} Hz, gait "
-            f"{settings.defaults.gait}/{settings.defaults.profile}; IDLE until 'stand'")
-        self._publish_status()
-        self._ahead_thread.start()
-        self._ticker.start()
-        if self._ticker.priority_error or process_error:
-            self.get_logger().warning(self._ticker.priority_error or process_error)
+
+    def _report_priority(self, priority: int, error: str) -> None:
+        if error:
+            self.get_logger().warning(error)
         elif priority:
             self.get_logger().info(f"tick thread at SCHED_FIFO priority {priority}"
                                    + (f", the process at {priority - 1}" if priority > 1
                                       else ""))
 
-    def destroy_node(self) -> None:
-        """Stop the ticker and planning threads, then destroy the node."""
-        self._ticker.stop(timeout=2.0)
-        self._ahead_stop.set()
-        self._ahead_wake.set()
-        if self._ahead_thread.is_alive():
-            self._ahead_thread.join(timeout=2.0)
-        super().destroy_node()
-
     # ----------------------------------------------------------------- parameters
     def _parameter_values(self, changes: list[Parameter] | None = None) -> dict[str, Any]:
-        values = {name: self.get_parameter(name).value
-                  for name in default_parameters(self.cfg, "")}
+        values = {spec.name: self.get_parameter(spec.name).value for spec in self._specs}
         for param in changes or []:
             values[param.name] = param.value
         return values
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         try:
-            validate_parameters(self._parameter_values(params), self.cfg)
+            planner_settings(self._specs, self._parameter_values(params), self.cfg)
         except CommandError as exc:
             reason = f"parameters refused: {exc}"
             with self._lock:
@@ -209,8 +224,7 @@ class PlannerNode(Node):
         return SetParametersResult(successful=True)
 
     def _after_set_parameters(self, params: list[Parameter]) -> None:
-        settings = validate_parameters(self._parameter_values(), self.cfg)
-        self._apply_settings(settings)
+        self._apply_settings(planner_settings(self._specs, self._parameter_values(), self.cfg))
 
     def _apply_settings(self, settings: PlannerSettings) -> None:
         with self._lock:
@@ -220,7 +234,7 @@ class PlannerNode(Node):
             if settings.rate != self._settings.rate:
                 self._ticker.period = 1.0 / settings.rate
             if settings.fault_hardware_id != self._settings.fault_hardware_id:
-                self._diag_levels.clear()
+                self._faults.clear()
                 self.core.set_paused(False, time.monotonic())
             self._settings = settings
         self._after_core_call()
@@ -246,29 +260,16 @@ class PlannerNode(Node):
         try:
             q = validate_joint_state(msg.name, msg.position, msg.velocity, self._joint_names)
         except CommandError as exc:
-            self._log("warn", f"joint_states ignored: {exc}")
+            self._log(Severity.WARNING, f"joint_states ignored: {exc}")
             return
         with self._lock:
             self.core.set_measured(q, time.monotonic())
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        fault_id = self._settings.fault_hardware_id
-        reasons = []
         with self._lock:
-            for status in msg.status:
-                if status.hardware_id != fault_id:
-                    continue
-                level = _level(status.level)
-                if level == _level(DiagnosticStatus.STALE):
-                    continue
-                self._diag_levels[status.name] = level
-                if level >= _level(DiagnosticStatus.ERROR):
-                    reasons.append(f"{status.name}: {status.message}")
-            errors = [name for name, lvl in self._diag_levels.items()
-                      if lvl >= _level(DiagnosticStatus.ERROR)]
-            if errors:
-                reason = "; ".join(reasons) if reasons else self.core.pause_reason
-                self.core.set_paused(True, time.monotonic(), reason)
+            faulted, reason = self._faults.update(msg.status, self._settings.fault_hardware_id)
+            if faulted:
+                self.core.set_paused(True, time.monotonic(), reason or self.core.pause_reason)
             else:
                 self.core.set_paused(False, time.monotonic())
         self._after_core_call()
@@ -289,43 +290,22 @@ class PlannerNode(Node):
             missed = self._ticker.missed
             if missed != self._missed_logged:
                 self._missed_logged = missed
-                self._log("warn", "ticks skipped: the planner process was starved (see "
-                                  "missed_ticks in planner_status)")
+                self._log(Severity.WARNING, "ticks skipped: the planner process was starved "
+                                            "(see missed_ticks in planner_status)")
         except Exception as exc:  # the ticker must outlive one bad tick
-            if self.context.ok():
-                self._log("error", f"tick failed: {type(exc).__name__}: {exc}")
+            self._report_failure(f"tick failed: {type(exc).__name__}: {exc}")
 
-    def _wake_planning(self, now: float) -> None:
-        """Ticker thread, right after a tick: wake the planning thread (costs nothing)."""
-        self._ahead_now = now
-        self._ahead_wake.set()
-
-    def _ahead_loop(self) -> None:
-        """Planning thread: plans the next slot before its boundary without
-        holding the core's lock while it computes, so the ticks go on meanwhile."""
-        while True:
-            self._ahead_wake.wait()
-            self._ahead_wake.clear()
-            if self._ahead_stop.is_set():
-                return
-            try:
-                with self._lock:
-                    job = self.core.ahead_job(self._ahead_now)
-                if job is None:
-                    continue
-                ahead = job.run()
-                with self._lock:
-                    self.core.store_ahead(ahead)
-            except Exception as exc:  # the boundary tick plans it itself if needed
-                if self.context.ok():
-                    self._log("error", f"planning ahead failed: {type(exc).__name__}: {exc}")
+    def _report_failure(self, message: str) -> None:
+        """Log a failure of the ticker or planning thread (unless shutting down)."""
+        if self.context.ok():
+            self._log(Severity.ERROR, message)
 
     def _after_core_call(self) -> None:
         with self._lock:
             events = self.core.pop_events()
             changed = self.core.revision != self._status_revision
         for level, message in events:
-            self._log(level, message)
+            self._log(_severity(level), message)
         if changed:
             self._publish_status()
 
@@ -337,23 +317,10 @@ class PlannerNode(Node):
         status["time"] = self.get_clock().now().nanoseconds * 1e-9
         self._pub_status.publish(String(data=json.dumps(status)))
 
-    def _log(self, level: str, message: str) -> None:
-        now = time.monotonic()
-        if level != "info":
-            last = self._logged.get(message)
-            if last is not None and now - last < LOG_REPEAT_PERIOD:
-                return
-            self._logged[message] = now
-            if len(self._logged) > 256:
-                self._logged.clear()
-        # one call site per severity: rclpy's logger ties a severity to its call site
-        logger = self.get_logger()
-        if level == "error":
-            logger.error(message)
-        elif level == "warn":
-            logger.warning(message)
-        else:
-            logger.info(message)
+    def _log(self, severity: Severity, message: str) -> None:
+        """Log ``message``; a warning or error repeated within `LOG_REPEAT_PERIOD` is not."""
+        if severity is Severity.INFO or self._repeats.admit(message, time.monotonic()):
+            log(self.get_logger(), severity, message)
 
 
 def main(args: list[str] | None = None) -> None:

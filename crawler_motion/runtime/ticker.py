@@ -129,7 +129,7 @@ class Ticker:
 
     @period.setter
     def period(self, value: float) -> None:
-        """A new period applies from the next deadline (the grid restarts there)."""
+        """A new period [s] applies after the next tick: the grid restarts at that tick."""
         value = self._checked(value)
         with self._lock:
             self._period = value

@@ -1,47 +1,40 @@
-"""Argument parsing shared by the command-line tools: one-line errors and checked numbers."""
+"""The walk options on the command line: argparse types and flags from the one option table."""
 
 from __future__ import annotations
 
 import argparse
-import math
-from collections.abc import Callable
-from typing import NoReturn
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+from crawler_motion.motion.walk_options import OPTIONS, OptionType, Sign, WalkOption
+from crawler_motion.runtime.cli_args import finite_number, positive_int
 
 
-class OneLineParser(argparse.ArgumentParser):
-    """An argument parser whose errors are a single line (no usage block, no traceback)."""
-
-    def error(self, message: str) -> NoReturn:
-        """Print ``<prog>: error: <message>`` and exit with status 2."""
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-def finite_number(kind: str, positive: bool = False, nonneg: bool = False
-                  ) -> Callable[[str], float]:
-    """An argparse ``type`` accepting a finite float (optionally > 0 or >= 0)."""
-
-    def convert(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{kind} must be a number, got {text!r}") from None
-        if not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"{kind} must be finite, got {text!r}")
-        if positive and value <= 0:
-            raise argparse.ArgumentTypeError(f"{kind} must be > 0, got {text}")
-        if nonneg and value < 0:
-            raise argparse.ArgumentTypeError(f"{kind} must be >= 0, got {text}")
-        return value
-
-    return convert
+def option_type(option: WalkOption) -> Callable[[str], Any]:
+    """The argparse ``type`` of a walk option: its kind and sign, not yet its config range
+    (choices are checked by `check_choice` once the config is loaded, or by the planner)."""
+    if option.type is OptionType.COUNT:
+        return positive_int
+    if option.type is OptionType.CHOICE:
+        return str
+    return finite_number(option.label, positive=option.sign is Sign.POSITIVE,
+                         nonneg=option.sign is Sign.NONNEGATIVE)
 
 
-def positive_int(text: str) -> int:
-    """An argparse ``type`` accepting an integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
+def add_walk_options(parser: argparse.ArgumentParser, names: Iterable[str],
+                     help_suffix: str = "") -> None:
+    """Add the ``--flag`` of each walk option in ``names`` (default None: not set)."""
+    for name in names:
+        option = OPTIONS[name]
+        parser.add_argument(option.flag, type=option_type(option), default=None,
+                            help=option.described(option.help) + help_suffix)
+
+
+def check_choice(prog: str, flag: str, value: str, choices: Sequence[str]) -> None:
+    """Exit with status 2 and argparse's one-line message if ``value`` is not a choice."""
+    if value not in choices:
+        shown = ", ".join(repr(choice) for choice in choices)
+        sys.stderr.write(f"{prog}: error: argument {flag}: invalid choice: {value!r} "
+                         f"(choose from {shown})\n")
+        raise SystemExit(2)

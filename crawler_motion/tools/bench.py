@@ -15,16 +15,17 @@ Rows:
   does before a slot starts);
 - one control tick through the public numpy API: `WalkPlan.evaluate` + `inverse_kinematics`
   + `joint_velocities` for 4 feet / 12 joints at one instant;
-- the same tick through `motion.fastpath` (`LegEvaluator` + `FastKinematics`), and its
+- the same tick through `motion.fastpath` (`Track` + `FastKinematics`), and its
   parts;
 - `PlannerCore.tick` while walking at 100 Hz as the node runs it (the next slot planned by
   `PlannerCore.plan_ahead` between ticks), the same without planning ahead (its p99 is the
   slot boundaries, where the tick plans and checks the next slot), and `plan_ahead` itself;
 - CAN bus load at 1 Mbit/s: command (target frames) at 100, 200 and 500 Hz and feedback
   (positions, status, heartbeat) at the simulated manager's default rates, with worst-case
-  bit stuffing (`protocol.frame_bits_worst_case`).
+  bit stuffing (`canbus.busload.frame_bits_worst_case`).
 
-Run: python scripts/bench.py [--quick] [--e2e]
+Run: crawler-motion bench [--quick] [--config PATH]; crawler-motion bench --e2e [--quick] [the
+options of ``bench_e2e``]
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ import numpy as np
 
 from crawler_motion.model.config import Config, load_config
 from crawler_motion.model.kinematics import inverse_kinematics, joint_velocities
-from crawler_motion.motion.fastpath import FastKinematics, LegEvaluator, joint_targets
+from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
 from crawler_motion.motion.gait import (
     GaitSequencer,
     WalkParams,
@@ -116,75 +117,96 @@ def random_targets(cfg: Config, n: int, seed: int = 1) -> np.ndarray:
     return targets
 
 
-def timing_rows(cfg: Config, scale: float) -> list[Row]:
-    """Every timing row but the planner's."""
+def calls_scaled(calls: int, scale: float) -> int:
+    """``calls`` scaled by ``scale`` (at least 20)."""
+    return max(20, int(calls * scale))
+
+
+def ik_rows(cfg: Config, scale: float) -> list[Row]:
+    """IK of the 4 legs in one call, and of a batch of 10,000 foot targets."""
     robot = cfg.robot
-
-    def n(calls: int) -> int:
-        return max(20, int(calls * scale))
-
-    rows = []
     feet = random_targets(cfg, 1)[0]
-    rows.append(measure("IK, 4 legs in one call (`inverse_kinematics`)",
-                        lambda: inverse_kinematics(robot, feet), n(5000)))
+    single = measure("IK, 4 legs in one call (`inverse_kinematics`)",
+                     lambda: inverse_kinematics(robot, feet), calls_scaled(5000, scale))
     batch = random_targets(cfg, 2500)
-    rows.append(measure("IK, batch of 10,000 foot targets (2,500 x 4) in one call",
-                        lambda: inverse_kinematics(robot, batch), n(200), warmup=10))
-    per = rows[-1].median / 10_000 * 1e3 if rows[-1].median else math.nan
-    rows[-1] = Row(rows[-1].name, rows[-1].calls, rows[-1].median, rows[-1].p99,
-                   f"{per:.0f} ns per target")
+    row = measure("IK, batch of 10,000 foot targets (2,500 x 4) in one call",
+                  lambda: inverse_kinematics(robot, batch), calls_scaled(200, scale), warmup=10)
+    per = row.median / 10_000 * 1e3 if row.median else math.nan
+    return [single, Row(row.name, row.calls, row.median, row.p99, f"{per:.0f} ns per target")]
 
-    params = WalkParams.defaults(cfg.gait)
-    seq = GaitSequencer(cfg, params)
+
+def replan_rows(cfg: Config, seq: GaitSequencer, scale: float) -> list[Row]:
+    """Re-planning one slot in the steady state, without and with `check_trajectories`."""
     for _ in range(3):  # start slot(s), then steady
         seq.next_slot()
-    rows.append(measure("re-plan one slot (`GaitSequencer.next_slot`, steady)",
-                        seq.next_slot, n(500), warmup=20))
+    rows = [measure("re-plan one slot (`GaitSequencer.next_slot`, steady)",
+                    seq.next_slot, calls_scaled(500, scale), warmup=20)]
 
     def plan_and_check() -> None:
         slot = seq.next_slot()
         assert slot is not None
-        check_trajectories(robot, slot.legs, "slot")
+        check_trajectories(cfg.robot, slot.legs, "slot")
 
-    rows.append(measure("re-plan one slot + `check_trajectories`", plan_and_check, n(300),
-                        warmup=10))
+    rows.append(measure("re-plan one slot + `check_trajectories`", plan_and_check,
+                        calls_scaled(300, scale), warmup=10))
+    return rows
 
+
+class PlanClock:
+    """Times through a plan at `PLANNER_RATE`, wrapping to 0 after its end [s]."""
+
+    def __init__(self, duration: float) -> None:
+        self.duration = duration
+        self.t = 0.0
+
+    def __call__(self) -> float:
+        self.t += 1.0 / PLANNER_RATE
+        if self.t > self.duration:
+            self.t = 0.0
+        return self.t
+
+
+def tick_rows(cfg: Config, params: WalkParams, seq: GaitSequencer, scale: float) -> list[Row]:
+    """One control tick through the public API and through the fast path, and its parts."""
+    robot = cfg.robot
     plan = plan_walk(cfg, params, 3)
-    period = 1.0 / PLANNER_RATE
-    clock = [0.0]
-
-    def next_time() -> float:
-        clock[0] += period
-        if clock[0] > plan.duration:
-            clock[0] = 0.0
-        return clock[0]
+    next_time = PlanClock(plan.duration)
 
     def public_tick() -> None:
         pos, vel, _ = plan.evaluate(next_time())
         q = inverse_kinematics(robot, pos[0])
         joint_velocities(robot, q, vel[0])
 
-    rows.append(measure("tick, public API: `WalkPlan.evaluate` + IK + `joint_velocities`",
-                        public_tick, n(3000), note="4 feet, 12 joints, one instant"))
-
-    evaluator = LegEvaluator(plan.legs)
+    rows = [measure("tick, public API: `WalkPlan.evaluate` + IK + `joint_velocities`",
+                    public_tick, calls_scaled(3000, scale),
+                    note="4 feet, 12 joints, one instant")]
+    evaluator = Track(plan.legs)
     kin = FastKinematics(robot)
+    many = calls_scaled(20000, scale)
     rows.append(measure("tick, fast path: `fastpath.joint_targets`",
-                        lambda: joint_targets(evaluator, kin, next_time()), n(20000),
+                        lambda: joint_targets(evaluator, kin, next_time()), many,
                         note="same numbers to 1e-12 (test_fastpath)"))
     pos, vel = evaluator.evaluate(1.3)
     q = kin.inverse(pos)
-    rows.append(measure("  fast path part: `LegEvaluator.evaluate` (4 feet, p + v)",
-                        lambda: evaluator.evaluate(next_time()), n(20000)))
+    rows.append(measure("  fast path part: `Track.evaluate` (4 feet, p + v)",
+                        lambda: evaluator.evaluate(next_time()), many))
     rows.append(measure("  fast path part: `FastKinematics.inverse` (4 legs)",
-                        lambda: kin.inverse(pos), n(20000)))
+                        lambda: kin.inverse(pos), many))
     rows.append(measure("  fast path part: `FastKinematics.velocities` (12 joints)",
-                        lambda: kin.velocities(q, vel), n(20000)))
+                        lambda: kin.velocities(q, vel), many))
     slot = seq.next_slot()
     assert slot is not None
-    rows.append(measure("fast path slot setup (`LegEvaluator(slot.legs)`)",
-                        lambda: LegEvaluator(slot.legs), n(2000)))
+    rows.append(measure("fast path slot setup (`Track(slot.legs)`)",
+                        lambda: Track(slot.legs), calls_scaled(2000, scale)))
     return rows
+
+
+def timing_rows(cfg: Config, scale: float) -> list[Row]:
+    """Every timing row but the planner's."""
+    params = WalkParams.defaults(cfg.gait)
+    seq = GaitSequencer(cfg, params)
+    return [*ik_rows(cfg, scale), *replan_rows(cfg, seq, scale),
+            *tick_rows(cfg, params, seq, scale)]
 
 
 def planner_rows(cfg: Config, scale: float) -> list[Row]:
@@ -239,14 +261,14 @@ def planner_rows(cfg: Config, scale: float) -> list[Row]:
             rows.append(Row("`PlannerCore.plan_ahead` (plan + check the next slot + its "
                             "evaluator), once per slot", len(us), statistics.median(us),
                             us[min(len(us) - 1, round(0.99 * (len(us) - 1)))],
-                            "runs in the ticker thread right after a tick"))
+                            "runs in the planning thread, before the slot boundary"))
     return rows
 
 
 def bus_rows(cfg: Config) -> list[tuple[str, float, float, int, float]]:
     """(what, rate Hz, frames/s, worst-case bits per cycle, bus load %) rows."""
-    from crawler_motion.canbus.protocol import MotorProtocol, frame_bits_worst_case
-    from crawler_motion.sim import motor_manager as sim
+    from crawler_motion.canbus.busload import frame_bits_worst_case
+    from crawler_motion.canbus.protocol import MotorProtocol
 
     proto = MotorProtocol.from_config(cfg)
     db = proto.database
@@ -263,8 +285,8 @@ def bus_rows(cfg: Config) -> list[tuple[str, float, float, int, float]]:
     for rate in COMMAND_RATES:
         rows.append((f"command: {n_target} target frames", rate, n_target * rate, target_bits,
                      100.0 * target_bits * rate / BITRATE))
-    feedback_rate = 1.0 / (proto.period("position") or 1.0 / sim.DEFAULT_RATE)
-    heartbeat_rate = 1.0 / (proto.period("heartbeat") or sim.DEFAULT_HEARTBEAT_PERIOD)
+    feedback_rate = 1.0 / proto.cycle_period("position")
+    heartbeat_rate = 1.0 / proto.cycle_period("heartbeat")
     n_pos, pos_bits = family("position")
     n_stat, stat_bits = family("status")
     n_hb, hb_bits = family("heartbeat")
@@ -315,26 +337,30 @@ def print_targets(rows: list[Row]) -> None:
             print(f"- {r.name}: {r.median:.1f} us -> {verdict}")
 
 
-def bench_e2e(args: argparse.Namespace) -> int:
-    """End-to-end bench over the cross-process bus (``scripts/bench_e2e.py``): planner ->
-    driver -> CAN at 100, 200 and 500 Hz, 15 s of walking per rate (5 s with ``--quick``)."""
+def bench_e2e(quick: bool, options: list[str]) -> int:
+    """End-to-end bench over the cross-process bus (`bench_e2e`): planner -> driver -> CAN at
+    100, 200 and 500 Hz, 15 s of walking per rate (5 s with ``--quick``); ``options`` go to
+    `bench_e2e.main` (``--seconds`` there overrides the default)."""
     from crawler_motion.tools import bench_e2e as e2e
 
-    return e2e.main(["--seconds", "5" if args.quick else "15"])
+    return e2e.main(["--seconds", "5" if quick else "15", *options])
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmarks and print the tables."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="crawler-motion bench",
+                                     description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
                         help="10x fewer calls per row (a smoke run; figures are noisier)")
     parser.add_argument("--config", default=None, help="robot.yaml (default: the shipped one)")
     parser.add_argument("--e2e", action="store_true",
-                        help="end-to-end bench over the cross-process bus instead "
-                             "(scripts/bench_e2e.py)")
-    args = parser.parse_args(argv)
+                        help="end-to-end bench over the cross-process bus instead (further "
+                             "options: crawler-motion bench --e2e --help)")
+    args, rest = parser.parse_known_args(argv)
     if args.e2e:
-        return bench_e2e(args)
+        return bench_e2e(args.quick, rest)
+    if rest:
+        parser.error(f"unrecognized arguments: {' '.join(rest)}")
     cfg = load_config(args.config)
     scale = 0.1 if args.quick else 1.0
     print(f"# crawler_motion bench (Python {sys.version.split()[0]}, numpy {np.__version__})\n")

@@ -19,10 +19,16 @@ from crawler_motion.model.config import JOINT_KINDS, Config, load_config
 from crawler_motion.model.kinematics import inverse_kinematics
 from crawler_motion.motion.gait import WalkParams, plan_walk
 from crawler_motion.motion.trajectory import Piecewise, SwingShape, step_cycle
-from crawler_motion.tools.args import OneLineParser, finite_number, positive_int
+from crawler_motion.motion.walk_options import OPTIONS, WALK_OPTIONS
+from crawler_motion.runtime.cli_args import OneLineParser, finite_number
+from crawler_motion.tools.args import add_walk_options, check_choice, option_type
 
 PROG = "crawler-motion"
 TRAJECTORY_HEADER = ("t,phase,x,y,z,vx,vy,vz,ax,ay,az,q_root,q_shoulder,q_knee").split(",")
+#: The walk options of one leg's cycle (``trajectory``); ``walk`` takes them all.
+STEP_OPTIONS = ("profile", "stride", "heading", "lift", "arc", "swing_time", "stance_time")
+#: The walk options of ``walk`` (every `WalkParams` field).
+WALK_FIELDS = tuple(option.name for option in WALK_OPTIONS if option.name != "steps")
 
 
 def sample_times(duration: float, rate: float) -> np.ndarray:
@@ -69,12 +75,8 @@ def cmd_trajectory(args: argparse.Namespace, cfg: Config) -> int:
 
 def cmd_walk(args: argparse.Namespace, cfg: Config) -> int:
     """Plan a walk and print joint angles and foot positions over time as CSV."""
-    params = WalkParams.defaults(
-        cfg.gait, **{k: v for k, v in dict(
-            gait=args.gait, profile=args.profile, stride=args.stride, heading=args.heading,
-            turn=args.turn, lift=args.lift, arc=args.arc, swing_time=args.swing_time,
-            stance_time=args.stance_time, body_height=args.body_height).items()
-            if v is not None})
+    params = WalkParams.defaults(cfg.gait, **{
+        name: getattr(args, name) for name in WALK_FIELDS if getattr(args, name) is not None})
     plan = plan_walk(cfg, params, args.steps)
     t = sample_times(plan.duration, args.rate)
     pos, _, _ = plan.evaluate(t)
@@ -113,21 +115,7 @@ def cmd_plot(args: argparse.Namespace, cfg: Config) -> int:
     return 0
 
 
-def _add_step_options(p: argparse.ArgumentParser, cfg_defaults: bool = True) -> None:
-    p.add_argument("--profile", choices=("rest", "smooth"), default=None if not cfg_defaults
-                   else "smooth", help="trajectory profile (default: smooth)")
-    p.add_argument("--stride", type=finite_number("stride", nonneg=True), default=None,
-                   help="stride length [m] (default from config)")
-    p.add_argument("--heading", type=finite_number("heading"), default=None,
-                   help="direction of the stride in the body frame [rad] (default 0: forward)")
-    p.add_argument("--lift", type=finite_number("lift", positive=True), default=None,
-                   help="A->B rise [m]")
-    p.add_argument("--arc", type=finite_number("arc", nonneg=True), default=None,
-                   help="apex C above B [m]")
-    p.add_argument("--swing-time", type=finite_number("swing time", positive=True), default=None,
-                   help="swing time [s]")
-    p.add_argument("--stance-time", type=finite_number("stance time", positive=True), default=None,
-                   help="stance time [s]")
+def _add_common_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rate", type=finite_number("rate", positive=True), default=100.0,
                    help="sample rate [Hz] (default 100)")
     p.add_argument("--config", default=None, help="robot YAML (default: the shipped one)")
@@ -138,16 +126,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(prog=PROG, description="Motion controller of a four-legged crawler.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     p = sub.add_parser("trajectory", help="one cycle of one leg as CSV (t = 0 at lift-off)")
-    p.add_argument("--leg", choices=("lf", "lb", "rb", "rf"), default="lf")
-    _add_step_options(p)
+    p.add_argument("--leg", default=None, help="a leg of the config (default: the first)")
+    add_walk_options(p, STEP_OPTIONS, " (default from config)")
+    _add_common_options(p)
     p.set_defaults(func=cmd_trajectory)
     p = sub.add_parser("walk", help="a whole walk (half steps in and out) as CSV")
-    p.add_argument("--steps", type=positive_int, default=2, help="gait cycles (default 2)")
-    p.add_argument("--gait", default=None, help="diagonal | wave (default from config)")
-    p.add_argument("--turn", type=finite_number("turn"), default=None, help="yaw per step [rad]")
-    p.add_argument("--body-height", type=finite_number("body height", positive=True), default=None,
-                   help="hip height above the ground [m]")
-    _add_step_options(p, cfg_defaults=False)
+    steps = OPTIONS["steps"]
+    p.add_argument(steps.flag, type=option_type(steps), default=2,
+                   help=f"{steps.help} (default 2)")
+    add_walk_options(p, WALK_FIELDS, " (default from config)")
+    _add_common_options(p)
     p.set_defaults(func=cmd_walk)
     p = sub.add_parser("urdf", help="the URDF generated from the robot config")
     p.add_argument("--output", "-o", default=None, help="file to write (default: stdout)")
@@ -167,16 +155,34 @@ def build_parser() -> argparse.ArgumentParser:
 _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("console", "crawler_motion.tools.console", "send gait commands/twists, follow the planner"),
     ("demo", "crawler_motion.tools.demo", "the whole stack on a virtual CAN bus, walking"),
+    ("bench", "crawler_motion.tools.bench", "benchmarks: timing, bus load (--e2e: whole stack)"),
+    ("soak", "crawler_motion.tools.soak", "the whole stack walking for a long time, checked"),
+    ("smoothness", "crawler_motion.tools.smoothness",
+     "foot-cycle smoothness against other controllers"),
+    ("tune-smooth", "crawler_motion.tools.tune_smooth",
+     "optimise the smooth profile (needs the [tune] extra)"),
+    ("param-docs", "crawler_motion.tools.param_docs",
+     "write docs/parameters.md from the nodes' parameter declarations"),
 )
 
 
 def _fill_defaults(args: argparse.Namespace, cfg: Config) -> None:
-    g = cfg.gait
-    defaults = {"stride": g.stride, "heading": 0.0, "lift": g.lift, "arc": g.arc,
-                "swing_time": g.swing_time, "stance_time": g.stance_time}
-    for key, value in defaults.items():
-        if getattr(args, key, "absent") is None:
-            setattr(args, key, value)
+    """The leg and step options ``trajectory`` leaves unset, from the config."""
+    if args.leg is None:
+        args.leg = cfg.robot.legs[0]
+    for name in STEP_OPTIONS:
+        default = OPTIONS[name].default
+        if getattr(args, name) is None and default is not None:
+            setattr(args, name, default(cfg))
+
+
+def _check_choices(args: argparse.Namespace, cfg: Config) -> None:
+    """The options whose choices the config defines (argparse runs before it is loaded)."""
+    prog = f"{PROG} {args.command}"
+    if getattr(args, "leg", None) is not None:
+        check_choice(prog, "--leg", args.leg, cfg.robot.legs)
+    if getattr(args, "profile", None) is not None:
+        check_choice(prog, "--profile", args.profile, OPTIONS["profile"].allowed(cfg))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -191,6 +197,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         cfg = load_config(args.config)
+        _check_choices(args, cfg)
         if args.command == "trajectory":
             _fill_defaults(args, cfg)
         return int(args.func(args, cfg))

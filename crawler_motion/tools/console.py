@@ -19,7 +19,9 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from crawler_motion.tools.args import OneLineParser, finite_number, positive_int
+from crawler_motion.planner.commands import COMMAND_KEYS
+from crawler_motion.runtime.cli_args import OneLineParser, finite_number
+from crawler_motion.tools.args import add_walk_options
 
 PROG = "crawler-motion console"
 
@@ -28,17 +30,11 @@ DONE_STATES: dict[str, tuple[str, ...]] = {
     "stand": ("STANDING",), "sit": ("SITTING",), "stop": ("STANDING",), "estop": ("ESTOP",),
     "reset": ("IDLE",),
 }
-
-
-WALK_OPTIONS: tuple[tuple[str, Callable[[str], Any], str], ...] = (
-    ("stride", finite_number("stride"), "stride [m]"),
-    ("heading", finite_number("heading"), "direction of travel in the body frame [rad]"),
-    ("turn", finite_number("turn"), "yaw per step [rad]"),
-    ("lift", finite_number("lift"), "A->B rise [m]"),
-    ("arc", finite_number("arc"), "apex above B [m]"),
-    ("swing_time", finite_number("swing time"), "swing time [s]"),
-    ("stance_time", finite_number("stance time"), "stance time [s]"),
-)
+#: Help of the actions that are more than one gait command sent as it is.
+ACTION_HELP: dict[str, str] = {
+    "stand": "stand up from the measured pose",
+    "walk": "walk N steps (absent: until stopped) and wait for it",
+}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -48,16 +44,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="give up after this long [s] (default 60)")
     parser.add_argument("--quiet", action="store_true", help="print only the outcome")
     sub = parser.add_subparsers(dest="action", required=True, parser_class=OneLineParser)
-    p = sub.add_parser("stand", help="stand up from the measured pose")
-    p.add_argument("--body-height", type=finite_number("body height", positive=True), default=None)
-    for name in ("sit", "stop", "estop", "reset"):
-        sub.add_parser(name, help=f"send {{\"command\": \"{name}\"}}")
-    p = sub.add_parser("walk", help="walk N steps (absent: until stopped) and wait for it")
-    p.add_argument("--steps", type=positive_int, default=None)
-    p.add_argument("--gait", default=None, help="diagonal | wave")
-    p.add_argument("--profile", default=None, help="rest | smooth")
-    for name, conv, text in WALK_OPTIONS:
-        p.add_argument(f"--{name.replace('_', '-')}", type=conv, default=None, help=text)
+    for name, keys in COMMAND_KEYS.items():
+        p = sub.add_parser(name, help=ACTION_HELP.get(name, f'send {{"command": "{name}"}}'))
+        add_walk_options(p, keys)
     p = sub.add_parser("twist", help="publish cmd_vel for a while, then a zero twist")
     p.add_argument("--vx", type=finite_number("vx"), default=0.0, help="forward speed [m/s]")
     p.add_argument("--vy", type=finite_number("vy"), default=0.0, help="left speed [m/s]")
@@ -73,21 +62,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def command_from_args(args: argparse.Namespace) -> dict[str, Any] | None:
     """The gait command object an action sends (None for twist/status)."""
-    if args.action in ("sit", "stop", "estop", "reset"):
-        return {"command": args.action}
-    if args.action == "stand":
-        cmd: dict[str, Any] = {"command": "stand"}
-        if args.body_height is not None:
-            cmd["body_height"] = args.body_height
-        return cmd
-    if args.action == "walk":
-        cmd = {"command": "walk"}
-        for name in ("steps", "gait", "profile", *(n for n, _, _ in WALK_OPTIONS)):
-            value = getattr(args, name)
-            if value is not None:
-                cmd[name] = value
-        return cmd
-    return None
+    if args.action not in COMMAND_KEYS:
+        return None
+    cmd: dict[str, Any] = {"command": args.action}
+    for name in COMMAND_KEYS[args.action]:
+        value = getattr(args, name)
+        if value is not None:
+            cmd[name] = value
+    return cmd
 
 
 def describe(status: dict[str, Any]) -> str:
@@ -104,7 +86,10 @@ def describe(status: dict[str, Any]) -> str:
 
 
 class Console:
-    """A small rclpy node that talks to the planner (created by `open`)."""
+    """A small rclpy node that talks to the planner (`main` makes one per run; tests too).
+
+    Call ``rclpy.init`` first; `close` destroys the node.
+    """
 
     def __init__(self, node_name: str = "crawler_console") -> None:
         import rclpy

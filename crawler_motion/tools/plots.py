@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -28,19 +29,28 @@ def comparison_cycles(cfg: Config) -> dict[str, Piecewise]:
             for label, prof, degree, _ in CURVES}
 
 
-def write_plots(cfg: Config, out: Path) -> list[Path]:
-    """Write ``foot_path.png``, ``foot_profiles.png`` and ``walk_joints.png`` into ``out``."""
+def _pyplot() -> Any:
+    """matplotlib's pyplot on the file-only Agg backend."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out.mkdir(parents=True, exist_ok=True)
-    cycles = comparison_cycles(cfg)
-    center = cfg.robot.standing_feet()[0]
-    written = []
+    return plt
 
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+
+def _save(fig: Any, path: Path, dpi: int) -> Path:
+    """Lay out, write and close ``fig``; returns ``path``."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    _pyplot().close(fig)
+    return path
+
+
+def plot_foot_path(cfg: Config, cycles: dict[str, Piecewise], out: Path) -> Path:
+    """``foot_path.png``: the swing of every compared curve in the x-z plane [mm]."""
+    center = cfg.robot.standing_feet()[0]
+    fig, ax = _pyplot().subplots(figsize=(7, 3.5))
     for (label, _, _, color), pw in zip(CURVES, cycles.values(), strict=True):
         t = np.linspace(pw.t0, pw.breaks[3], 600)
         pos = pw.evaluate(t)[0]
@@ -52,12 +62,13 @@ def write_plots(cfg: Config, out: Path) -> list[Path]:
     ax.set_aspect("equal")
     ax.grid(True, alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    written.append(out / "foot_path.png")
-    fig.savefig(written[-1], dpi=120)
-    plt.close(fig)
+    return _save(fig, out / "foot_path.png", 120)
 
-    fig, axes = plt.subplots(3, 2, figsize=(11, 8), sharex=True)
+
+def plot_foot_profiles(cfg: Config, cycles: dict[str, Piecewise], out: Path) -> Path:
+    """``foot_profiles.png``: x and z position, velocity and acceleration over one cycle."""
+    center = cfg.robot.standing_feet()[0]
+    fig, axes = _pyplot().subplots(3, 2, figsize=(11, 8), sharex=True)
     for (label, _, _, color), pw in zip(CURVES, cycles.values(), strict=True):
         t = np.linspace(pw.t0, pw.t_end, 2400)
         pos, vel, acc = pw.evaluate(t)
@@ -77,15 +88,15 @@ def write_plots(cfg: Config, out: Path) -> list[Path]:
             axes[row, col].grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     fig.suptitle("One step cycle: rest vs smooth sextic vs the study's quartic")
-    fig.tight_layout()
-    written.append(out / "foot_profiles.png")
-    fig.savefig(written[-1], dpi=110)
-    plt.close(fig)
+    return _save(fig, out / "foot_profiles.png", 110)
 
+
+def plot_walk_joints(cfg: Config, out: Path) -> Path:
+    """``walk_joints.png``: the joint angles [rad] over a default 3-step walk."""
     plan = plan_walk(cfg, WalkParams.defaults(cfg.gait), 3)
     t = np.linspace(0.0, plan.duration, 1500)
     q = inverse_kinematics(cfg.robot, plan.evaluate(t)[0])
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    fig, axes = _pyplot().subplots(3, 1, figsize=(10, 8), sharex=True)
     for j, kind in enumerate(("root", "shoulder", "knee")):
         for i, leg in enumerate(cfg.robot.legs):
             axes[j].plot(t, q[:, i, j], label=f"{leg}_{kind}_joint")
@@ -95,8 +106,12 @@ def write_plots(cfg: Config, out: Path) -> list[Path]:
     axes[-1].set_xlabel("time [s]")
     fig.suptitle(f"Joint angles over a {plan.slots[0].params.gait} walk "
                  f"(half step in, 3 steps, half step out)")
-    fig.tight_layout()
-    written.append(out / "walk_joints.png")
-    fig.savefig(written[-1], dpi=110)
-    plt.close(fig)
-    return written
+    return _save(fig, out / "walk_joints.png", 110)
+
+
+def write_plots(cfg: Config, out: Path) -> list[Path]:
+    """Write ``foot_path.png``, ``foot_profiles.png`` and ``walk_joints.png`` into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    cycles = comparison_cycles(cfg)
+    return [plot_foot_path(cfg, cycles, out), plot_foot_profiles(cfg, cycles, out),
+            plot_walk_joints(cfg, out)]

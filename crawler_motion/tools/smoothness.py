@@ -28,7 +28,7 @@ smoothstep in x and y, two smoothstep halves in z; stance linear at constant spe
 continuous-stance option (`continuous.continuous_step_cycle`, smooth profile).
 
 Prints a markdown table and writes ``smoothness.png`` (x and z acceleration against time)
-into ``--out`` (default ``plots/``). Run: python scripts/smoothness_report.py [--out DIR]
+into ``--out`` (default ``plots/``). Run: crawler-motion smoothness [--out DIR]
 """
 
 from __future__ import annotations
@@ -314,7 +314,8 @@ def plot(rows: list[tuple[Cycle, Figures]], out: Path, title: str) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     """Print the table and the notes, write the figure."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="crawler-motion smoothness",
+                                     description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="plots", help="output directory (default: plots/)")
     parser.add_argument("--config", default=None, help="robot.yaml (default: the shipped one)")
     args = parser.parse_args(argv)

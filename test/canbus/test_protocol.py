@@ -13,6 +13,8 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from crawler_motion.canbus.busload import frame_bits_worst_case
+from crawler_motion.canbus.crc import crc8_sae_j1850
 from crawler_motion.canbus.protocol import (
     AxisFlags,
     AxisStatus,
@@ -21,24 +23,12 @@ from crawler_motion.canbus.protocol import (
     MotorProtocol,
     PositionFeedback,
     TargetFrame,
-    crc8_sae_j1850,
-    frame_bits_worst_case,
 )
 from crawler_motion.errors import ProtocolError
 from crawler_motion.model.config import config_path, joint_names, load_config
 
 JOINTS = joint_names()
 RES = 0.0001
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_config().robot
-
-
-@pytest.fixture(scope="module")
-def proto(robot):
-    return MotorProtocol.from_config(robot)
 
 
 def mid_pose(proto: MotorProtocol) -> np.ndarray:

@@ -15,31 +15,24 @@ import can
 import numpy as np
 import pytest
 
+from crawler_motion.canbus.bus import bus_kwargs
+from crawler_motion.canbus.crc import crc8_sae_j1850
 from crawler_motion.canbus.protocol import (
     AxisFlags,
     ControlFrame,
     MotorProtocol,
     TargetFrame,
-    crc8_sae_j1850,
 )
-from crawler_motion.driver.core import (
-    ERROR,
-    FAILED_FRAMES_BEFORE_REOPEN,
-    OK,
-    PARAMETERS,
-    STALE,
-    WARN,
-    DriverCore,
-    DriverError,
-    DriverSettings,
-    bus_kwargs,
-    validate_parameter,
-    validate_parameters,
-)
+from crawler_motion.driver.core import DriverCore
+from crawler_motion.driver.diagnostics import Level
+from crawler_motion.driver.link import FAILED_FRAMES_BEFORE_REOPEN, DriverError
+from crawler_motion.driver.settings import PARAMETERS, DriverSettings
 from crawler_motion.model.config import joint_names, load_config
+from crawler_motion.runtime.parameters import validate_parameters
 from crawler_motion.sim.motor_manager import MotorManagerSim
 
 JOINTS = joint_names()
+OK, WARN, ERROR, STALE = Level
 DT = 0.01
 RES = 0.0001
 STAND = np.array([0.0, 0.3, 1.2] * 4)
@@ -767,14 +760,15 @@ def test_exactly_one_of_bus_and_factory(proto):
     ("bogus", 1, "unknown parameter"),
 ])
 def test_validator_refuses_with_a_reason(name, value, reason):
-    assert reason in validate_parameter(name, value)
+    reasons = validate_parameters(PARAMETERS, {name: value})
+    assert len(reasons) == 1 and reason in reasons[0]
 
 
 def test_validator_accepts_the_defaults():
     defaults = {p.name: p.default for p in PARAMETERS if p.name not in (
         "dbc_file", "axes_file", "config_file")}
-    assert validate_parameters(defaults) == []
-    assert validate_parameter("command_timeout", 1) is None  # an int is a fine float
+    assert validate_parameters(PARAMETERS, defaults) == []
+    assert validate_parameters(PARAMETERS, {"command_timeout": 1}) == []  # an int is a float
     with pytest.raises(ValueError, match="on_timeout"):
         DriverSettings(on_timeout="explode")
 
@@ -820,7 +814,7 @@ def test_a_failing_logger_never_breaks_the_safety_path(proto):
         assert wait_for(lambda: core.watchdog_tripped, 2.0)  # the thread is still alive
         assert core.estop("logger test")
         assert logger.calls >= 4
-        assert core._thread is not None and core._thread.is_alive()
+        assert core.running  # the thread is alive
     finally:
         core.close()
         spy.shutdown()

@@ -9,13 +9,10 @@ kernel has one. conftest.py isolates the ROS graph (localhost, random domain id)
 from __future__ import annotations
 
 import json
-import os
-import random
 import select
 import signal
 import socket
 import subprocess
-import sys
 import threading
 import time
 import uuid
@@ -43,7 +40,8 @@ from crawler_motion.driver.node import DriverNode
 from crawler_motion.errors import ConfigError
 from crawler_motion.model.config import joint_names, load_config
 from crawler_motion.sim.motor_manager import MotorManagerSim
-from crawler_motion.tools.demo import free_udp_port
+from crawler_motion.testing.bus import free_udp_port, random_multicast_group
+from crawler_motion.testing.stack import manager_process
 
 JOINTS = joint_names()
 STAND = np.array([0.0, 0.3, 1.2] * 4)
@@ -470,7 +468,7 @@ def _vcan0_missing() -> str:
 
 def _bus_args(kind: str) -> tuple[list[str], dict[str, object]]:
     if kind == "udp_multicast":
-        group = f"239.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
+        group = random_multicast_group()
         port = free_udp_port()
         return (["--interface", "udp_multicast", "--channel", group, "--port", str(port)],
                 {"can_interface": "udp_multicast", "can_channel": group, "can_port": port})
@@ -500,12 +498,7 @@ def _wait_for_line(proc: subprocess.Popen, text: str, timeout: float) -> str:
 @pytest.mark.parametrize("kind", ["udp_multicast", "vcan0"])
 def test_cross_process_with_the_manager_subprocess(graph, kind):
     sim_args, params = _bus_args(kind)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "crawler_motion.sim.motor_manager", *sim_args,
-         "--speed-limit", "3.0", "--command-timeout", "0.5"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    proc = manager_process([*sim_args, "--speed-limit", "3.0", "--command-timeout", "0.5"])
     try:
         _wait_for_line(proc, "running on", 20.0)
         options = {**params, "autostart": True, "diagnostics_period": 0.1,

@@ -246,6 +246,7 @@ def test_unreachable_error_names_the_sample():
     with pytest.raises(UnreachableError) as err:
         inverse_kinematics(ROBOT, feet)
     assert "leg rb" in str(err.value) and "at sample (4,)" in str(err.value)
+    assert err.value.sample == (4,)
 
 
 def test_limit_error_names_the_sample_in_a_2d_batch():
@@ -254,9 +255,25 @@ def test_limit_error_names_the_sample_in_a_2d_batch():
     with pytest.raises(JointLimitError) as err:
         check_limits(ROBOT, q)
     assert "leg rf root joint" in str(err.value) and "at sample (1, 2)" in str(err.value)
+    assert err.value.sample == (1, 2)
     with pytest.raises(JointLimitError, match=re.escape("leg rf root joint")) as err:
         inverse_kinematics(ROBOT, forward_kinematics(ROBOT, q))
     assert "at sample (1, 2)" in str(err.value)
+    assert err.value.sample == (1, 2)
+
+
+FAR = np.array([1.0, 0.0, 0.0])  # [m] added to every foot: out of reach
+
+
+@pytest.mark.parametrize("error, make", [
+    (UnreachableError, lambda: inverse_kinematics(ROBOT, ROBOT.standing_feet() + FAR)),
+    (JointLimitError, lambda: check_limits(ROBOT, np.full((4, 3), 3.0))),
+    (JointLimitError, lambda: check_limits(ROBOT, np.full((4, 3), np.nan))),
+])
+def test_an_unbatched_error_has_no_sample(error, make):
+    with pytest.raises(error) as err:
+        make()
+    assert err.value.sample is None and "at sample" not in str(err.value)
 
 
 # ---------------------------------------------------------------- known poses

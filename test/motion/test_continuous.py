@@ -103,7 +103,8 @@ def test_default_cycle_layout_and_closure(profile):
     assert pw.phases == ("lift", "arc", "lower", "stance")
     prof = PROFILES[profile]
     t_w = GAIT.swing_time
-    want = [prof.lift * t_w, prof.arc * t_w, prof.lower * t_w, GAIT.stance_time]
+    want = [prof.lift_fraction * t_w, prof.arc_fraction * t_w, prof.lower_fraction * t_w,
+            GAIT.stance_time]
     np.testing.assert_allclose(pw.durations, want, rtol=1e-12)
     a = CENTER - np.array([GAIT.stride / 2, 0.0, 0.0])
     e = CENTER + np.array([GAIT.stride / 2, 0.0, 0.0])

@@ -28,9 +28,9 @@ from crawler_motion.model.kinematics import (
     joint_velocities,
 )
 from crawler_motion.motion.continuous import continuous_step_cycle
-from crawler_motion.motion.fastpath import FastKinematics, LegEvaluator, joint_targets
+from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
 from crawler_motion.motion.gait import GaitSequencer, WalkParams, plan_walk
-from crawler_motion.motion.trajectory import Piecewise, Segment, SwingShape
+from crawler_motion.motion.trajectory import Piecewise, Segment, SwingShape, rest_segment
 
 CFG = load_config()
 ROBOT = CFG.robot
@@ -81,7 +81,7 @@ def assert_same(fast, ref) -> None:
 def test_whole_walk_equals_the_numpy_path(overrides):
     params = WalkParams.defaults(CFG.gait, **overrides)
     plan = plan_walk(CFG, params, 2)
-    evaluator = LegEvaluator(plan.legs)
+    evaluator = Track(plan.legs)
     times = times_of(plan.legs)
     pos_ref, vel_ref, _ = plan.evaluate(times)
     q_ref = inverse_kinematics(ROBOT, pos_ref)
@@ -101,7 +101,7 @@ def test_slot_by_slot_as_the_planner_uses_it():
     for _ in range(6):
         slot = seq.next_slot()
         assert slot is not None
-        evaluator = LegEvaluator(slot.legs)
+        evaluator = Track(slot.legs)
         for t in times_of(slot.legs, 0.01):
             pos, _, q, qd = reference(slot.legs, t)
             got_q, got_qd = joint_targets(evaluator, KIN, t)
@@ -119,7 +119,7 @@ def test_continuous_stance_cycles_and_lower_degree_segments():
                  for i in range(4))
     line = Segment(np.array([[0.0, 1.0], [2.0, -1.0], [0.5, 0.25]]), 0.4, "linear")
     legs = (*legs[:3], Piecewise([line, line]))  # degree 1, a different span
-    evaluator = LegEvaluator(legs)
+    evaluator = Track(legs)
     for t in times_of(legs, 0.003):
         pos, vel = evaluator.evaluate(t)
         for i, leg in enumerate(legs):
@@ -130,13 +130,13 @@ def test_continuous_stance_cycles_and_lower_degree_segments():
 
 def test_evaluator_refuses_what_it_cannot_evaluate():
     with pytest.raises(TrajectoryError):
-        LegEvaluator([])
+        Track([])
     two_d = Piecewise([Segment(np.zeros((2, 7)), 1.0)])
     with pytest.raises(TrajectoryError, match="3-D"):
-        LegEvaluator([two_d])
+        Track([two_d])
     octic = Piecewise([Segment(np.zeros((3, 9)), 1.0)])
     with pytest.raises(TrajectoryError, match="degree"):
-        LegEvaluator([octic])
+        Track([octic])
 
 
 # --- errors: identical to the numpy path ------------------------------------------------------
@@ -263,3 +263,18 @@ def test_angles_within_rounding_of_a_limit_are_set_onto_it_as_numpy_does(side):
     vel = np.full((4, 3), 0.02)
     np.testing.assert_allclose(fast_targets(feet, vel), numpy_targets(feet, vel), rtol=0,
                                atol=TOL)
+
+
+def test_a_joint_space_track_equals_its_piecewise():
+    """The stand / sit move: one 12-D rest sextic, clamped before and after its span."""
+    start = inverse_kinematics(ROBOT, ROBOT.standing_feet()).reshape(-1)
+    move = Piecewise([rest_segment(start, start + 0.1, 1.3, "stand")])
+    track = Track([move], dims=12)
+    assert (track.t0, track.t_end, track.duration) == (0.0, 1.3, 1.3)
+    for t in (-0.1, 0.0, 0.4, 0.65, 1.3, 1.5):
+        pos, vel = track.evaluate(t)
+        p_ref, v_ref, _ = move.evaluate(min(max(t, 0.0), 1.3))
+        np.testing.assert_allclose(pos, p_ref[0], rtol=0, atol=TOL)
+        np.testing.assert_allclose(vel, v_ref[0], rtol=0, atol=TOL)
+    with pytest.raises(TrajectoryError, match="3-D"):
+        Track([move])

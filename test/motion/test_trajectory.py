@@ -145,7 +145,7 @@ def test_quartic_leaves_nonzero_end_accelerations_in_the_studys_setting():
     # cubic 3u^2 - 2u^3, whose end accelerations are +-6 h / T^2 -- not zero.
     prof = PROFILES["rest"]
     h, t_w = GAIT.lift, GAIT.swing_time
-    t_lift = prof.lift * t_w
+    t_lift = prof.lift_fraction * t_w
     c = quartic_coefficients(t_lift, 0.0, 0.0, h, 0.0, h / 2)
     np.testing.assert_allclose(c, h * np.array([0, 0, 3, -2, 0]), atol=1e-15)
     _, _, a = evaluate_polynomial(c, t_lift, np.array([0.0, t_lift]))
@@ -297,7 +297,8 @@ class Step:
         self.B = self.A + lift * up
         self.D = self.E + lift * up
         self.C = (self.B + self.D) / 2 + arc * up
-        self.t = (self.prof.lift * swing, self.prof.arc * swing, self.prof.lower * swing, stance)
+        self.t = (self.prof.lift_fraction * swing, self.prof.arc_fraction * swing,
+                  self.prof.lower_fraction * swing, stance)
         shape = SwingShape(lift, arc, swing, self.prof)
         self.pw = step_cycle(self.center, stride * self.dir[:2], shape, stance)
         length = max(stride, lift + arc, 1e-3)
@@ -360,11 +361,12 @@ def test_step_cycle_key_points_and_time_split(profile, heading):
 
 def test_time_split_lift_fast_put_down_slowly():
     rest, smooth = PROFILES["rest"], PROFILES["smooth"]
-    assert (rest.lift, rest.arc, rest.lower) == (0.25, 0.5, 0.25)  # the study's split
+    assert (rest.lift_fraction, rest.arc_fraction, rest.lower_fraction) == (0.25, 0.5, 0.25)
     assert (rest.v_b, rest.v_d) == (0.0, 0.0)
-    assert smooth.lift < smooth.lower
+    assert smooth.lift_fraction < smooth.lower_fraction
     assert smooth.v_b > 0 and smooth.v_d > 0
-    assert smooth.lift + smooth.arc + smooth.lower == pytest.approx(1.0, abs=1e-12)
+    assert smooth.lift_fraction + smooth.arc_fraction + smooth.lower_fraction == pytest.approx(
+        1.0, abs=1e-12)
 
 
 @pytest.mark.parametrize("heading", HEADINGS)

@@ -1,4 +1,4 @@
-"""Operator input: gait commands, twists, measured joint states, node parameters."""
+"""Operator input: gait commands, twists, measured joint states."""
 
 from __future__ import annotations
 
@@ -14,18 +14,15 @@ from hypothesis import strategies as st
 
 from crawler_motion.errors import CommandError
 from crawler_motion.model.config import load_config
+from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.motion.gait import GaitSequencer, WalkParams, validate_params
 from crawler_motion.planner.commands import (
     MAX_COMMAND_BYTES,
     MAX_STEPS,
     Command,
-    default_parameters,
-    parameter_ranges,
     parse_gait_command,
     twist_limits,
     twist_to_params,
-    validate_joint_state,
-    validate_parameters,
 )
 
 CFG = load_config()
@@ -281,46 +278,3 @@ def test_joint_state_refused(names, positions, velocities, fragment):
     with pytest.raises(CommandError) as info:
         validate_joint_state(names, positions, velocities, NAMES)
     assert fragment in str(info.value)
-
-
-# ------------------------------------------------------------------ node parameters
-def test_parameters_defaults_valid():
-    values = default_parameters(CFG, "robot.yaml")
-    s = validate_parameters(values, CFG)
-    assert s.rate == 100.0 and s.cmd_vel_timeout == 0.5 and s.fault_hardware_id == "motor_manager"
-    assert s.defaults == validate_params(WalkParams.defaults(G, body_height=0.07), CFG)
-    assert parameter_ranges(CFG)["stride"] == (0.0, G.max_stride)
-
-
-@pytest.mark.parametrize(("change", "fragment"), [
-    ({"rate": 0.5}, "'rate' = 0.5"),
-    ({"rate": 1000.5}, "'rate' = 1000.5"),
-    ({"rate": math.nan}, "'rate' = nan"),
-    ({"cmd_vel_timeout": 0.0}, "'cmd_vel_timeout' = 0"),
-    ({"stride": 0.09}, "'stride' = 0.09"),
-    ({"lift": 0.03, "arc": 0.02}, "gait defaults refused: arc"),
-    ({"arc": 0.0}, "gait defaults refused: arc"),  # the smooth profile needs some arc
-    ({"gait": "trot"}, "'gait' must be one of"),
-    ({"profile": ""}, "'profile' must be one of"),
-    ({"body_height": 0.1}, "'body_height' = 0.1"),
-    ({"fault_hardware_id": " "}, "fault_hardware_id must be a non-empty string"),
-    ({"config_file": ""}, "config_file must be"),
-    ({"speed": 1.0}, "unknown ['speed']"),
-    ({"stride": True}, "'stride' must be a number"),
-])
-def test_parameters_refused(change, fragment):
-    values = default_parameters(CFG, "robot.yaml") | change
-    with pytest.raises(CommandError) as info:
-        validate_parameters(values, CFG)
-    assert fragment in str(info.value)
-
-
-def test_parameters_boundaries_accepted():
-    lo = default_parameters(CFG, "x") | {"rate": 1.0, "cmd_vel_timeout": 0.05, "stride": 0.0,
-                                        "lift": 0.001, "arc": 0.0, "swing_time": 0.1,
-                                        "body_height": 0.05, "profile": "rest"}
-    hi = default_parameters(CFG, "x") | {"rate": 1000.0, "cmd_vel_timeout": 10.0,
-                                        "stride": 0.08, "lift": 0.03, "arc": 0.01,
-                                        "swing_time": 5.0, "body_height": 0.09}
-    assert validate_parameters(lo, CFG).defaults.body_height == 0.05
-    assert validate_parameters(hi, CFG).rate == 1000.0

@@ -13,9 +13,13 @@ from hypothesis import strategies as st
 from crawler_motion.errors import CommandError, GaitError
 from crawler_motion.model.config import load_config
 from crawler_motion.model.kinematics import forward_kinematics
+from crawler_motion.motion.fastpath import Track
 from crawler_motion.motion.gait import GaitSequencer, WalkParams, plan_walk, standing_pose
-from crawler_motion.planner import core as pc
-from crawler_motion.planner.core import (
+from crawler_motion.planner import moves, next_slot, upfront
+from crawler_motion.planner.core import JointTarget, PlannerCore
+from crawler_motion.planner.moves import sitting_pose
+from crawler_motion.planner.next_slot import PLAN_AHEAD_HORIZON
+from crawler_motion.planner.state import (
     ESTOP,
     HOLDING,
     IDLE,
@@ -24,9 +28,8 @@ from crawler_motion.planner.core import (
     STANDING,
     STOPPING,
     WALKING,
-    PlannerCore,
-    sitting_pose,
 )
+from crawler_motion.planner.walk import WalkController
 
 CFG = load_config()
 ROBOT = CFG.robot
@@ -43,10 +46,10 @@ class Clock:
     def __init__(self, core: PlannerCore, t: float = 0.0) -> None:
         self.core = core
         self.t = t
-        self.targets: list[tuple[float, pc.JointTarget | None]] = []
+        self.targets: list[tuple[float, JointTarget | None]] = []
         self.states: list[tuple[float, str]] = []
 
-    def tick(self) -> pc.JointTarget | None:
+    def tick(self) -> JointTarget | None:
         target = self.core.tick(self.t)
         self.targets.append((self.t, target))
         self.states.append((self.t, self.core.state))
@@ -114,7 +117,7 @@ def test_stand_from_a_measured_pose_is_smooth_and_reaches_standing():
     t_end = clock.until(STANDING)
     q = positions(clock)
     np.testing.assert_allclose(q[-1], STAND.reshape(-1), atol=1e-12)
-    assert t_end == pytest.approx(pc.MIN_MOVE_TIME, abs=1e-9)
+    assert t_end == pytest.approx(moves.MIN_MOVE_TIME, abs=1e-9)
     assert np.all((q >= LO) & (q <= HI))
     assert np.abs(np.diff(q, axis=0)).max() < 0.05  # no jump
     # velocities are the derivative of the positions
@@ -126,15 +129,15 @@ def test_a_long_move_keeps_to_the_velocity_limits():
     slow = replace(CFG, robot=replace(ROBOT, velocity=np.array([1.0, 0.8, 0.6])))
     far = STAND.copy()
     far[:, 2] = ROBOT.upper[2]
-    duration = pc.move_duration(slow, far, STAND)
-    assert duration > 2 * pc.MIN_MOVE_TIME
+    duration = moves.move_duration(slow, far, STAND)
+    assert duration > 2 * moves.MIN_MOVE_TIME
     clock = Clock(PlannerCore(slow))
     clock.measure(far)
     clock.send('{"command": "stand"}')
     assert clock.until(STANDING) == pytest.approx(duration, abs=DT)
     q = positions(clock)
     step = np.abs(np.diff(q, axis=0)).max(axis=0)  # per tick
-    limit = pc.MOVE_SPEED_FRACTION * np.tile(slow.robot.velocity, 4) * DT
+    limit = moves.MOVE_SPEED_FRACTION * np.tile(slow.robot.velocity, 4) * DT
     assert np.all(step <= limit * 1.001)
     assert step[2] > 0.95 * limit[2]  # the knee sets the pace
 
@@ -332,7 +335,7 @@ def test_holding_when_not_even_a_stop_slot_passes(monkeypatch):
     def refuse(*args):
         raise GaitError("synthetic failure")
 
-    monkeypatch.setattr(pc, "check_trajectories", refuse)
+    monkeypatch.setattr(next_slot, "check_trajectories", refuse)  # the next slot's check
     clock.run(0.4)
     assert clock.core.state == HOLDING
     held = clock.tick()
@@ -556,13 +559,13 @@ def test_track_evaluation_matches_the_piecewise_trajectories():
                                                  stance_time=3.0))
     for _ in range(5):
         slot = seq.next_slot()
-        track = pc._Track(slot.legs)
+        track = Track(slot.legs)
         for tau in np.linspace(-0.1, slot.duration + 0.1, 37):
-            out = track.evaluate(float(tau))
+            pos, vel = track.evaluate(float(tau))
             ref = [leg.evaluate(min(max(tau, 0.0), slot.duration)) for leg in slot.legs]
-            np.testing.assert_allclose(out[:12], np.concatenate([r[0][0] for r in ref]),
+            np.testing.assert_allclose(pos, np.concatenate([r[0][0] for r in ref]),
                                        atol=1e-12)
-            np.testing.assert_allclose(out[12:], np.concatenate([r[1][0] for r in ref]),
+            np.testing.assert_allclose(vel, np.concatenate([r[1][0] for r in ref]),
                                        atol=1e-10)
 
 
@@ -588,7 +591,7 @@ def test_an_infeasible_twist_held_still_is_checked_once(monkeypatch):
         calls.append(args)
         return plan_walk(*args)
 
-    monkeypatch.setattr(pc, "plan_walk", counting)
+    monkeypatch.setattr(upfront, "plan_walk", counting)
     for _ in range(5):
         with pytest.raises(CommandError, match="walk refused as a whole"):
             clock.core.on_twist(0.0, 0.133, 0.0, clock.t)
@@ -632,12 +635,12 @@ def test_planning_ahead_changes_no_target(script, monkeypatch):
     `plan_ahead` after every tick no tick ever plans a slot itself."""
     plain, _ = _run_script(script, ahead=False)
     in_tick = []
-    real_try_slot = PlannerCore._try_slot
+    real_try_slot = WalkController._try_slot
     planning_ahead = [False]
 
     def counting(self, params, stopping):
         if not planning_ahead[0]:
-            in_tick.append(self._now)
+            in_tick.append(self.slot_t0)
         return real_try_slot(self, params, stopping)
 
     real_plan_ahead = PlannerCore.plan_ahead
@@ -649,7 +652,7 @@ def test_planning_ahead_changes_no_target(script, monkeypatch):
         finally:
             planning_ahead[0] = False
 
-    monkeypatch.setattr(PlannerCore, "_try_slot", counting)
+    monkeypatch.setattr(WalkController, "_try_slot", counting)
     monkeypatch.setattr(PlannerCore, "plan_ahead", marked)
     early, planned = _run_script(script, ahead=True)
     assert len(plain.targets) == len(early.targets)
@@ -678,7 +681,7 @@ def test_plan_ahead_waits_for_the_horizon_before_the_boundary():
     clock.send('{"command": "walk"}')
     t0 = clock.t
     clock.tick()
-    horizon = pc.PLAN_AHEAD_HORIZON
+    horizon = PLAN_AHEAD_HORIZON
     assert SLOT > horizon + 2 * DT
     assert clock.core.plan_ahead(t0 + SLOT - horizon - DT) is False  # too early
     assert clock.core.plan_ahead(t0 + SLOT - horizon + DT) is True

@@ -24,7 +24,7 @@ from std_msgs.msg import String
 
 from crawler_motion.model.config import load_config
 from crawler_motion.motion.gait import standing_pose
-from crawler_motion.planner.core import sitting_pose
+from crawler_motion.planner.moves import sitting_pose
 from crawler_motion.planner.node import PlannerNode
 
 CFG = load_config()
@@ -217,7 +217,8 @@ def test_parameter_sets_are_validated_by_the_node(ros):
     result = planner.set_parameters([Parameter("stride", value=0.5)])[0]  # descriptor range
     assert not result.successful and result.reason
     result = planner.set_parameters([Parameter("gait", value="gallop")])[0]
-    assert not result.successful and "'gait' must be one of" in result.reason
+    assert not result.successful and (
+        "gait must be one of ['diagonal', 'wave'], got 'gallop'" in result.reason)
     result = planner.set_parameters([Parameter("config_file", value="other.yaml")])[0]
     assert not result.successful  # read-only
     result = planner.set_parameters_atomically([Parameter("lift", value=0.02),

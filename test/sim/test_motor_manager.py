@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-import os
-import random
 import signal
-import subprocess
-import sys
 import time
 import uuid
 from pathlib import Path
@@ -15,6 +11,7 @@ import can
 import numpy as np
 import pytest
 
+from crawler_motion.canbus.bus import open_bus
 from crawler_motion.canbus.protocol import (
     AxisFlags,
     AxisStatus,
@@ -24,8 +21,11 @@ from crawler_motion.canbus.protocol import (
 )
 from crawler_motion.errors import ProtocolError
 from crawler_motion.model.config import joint_names, load_config
-from crawler_motion.sim.motor_manager import MotorManagerSim, main
-from crawler_motion.tools.demo import free_udp_port
+from crawler_motion.sim.manager_cli import main
+from crawler_motion.sim.manager_loop import PeriodicSchedule
+from crawler_motion.sim.motor_manager import MotorManagerSim
+from crawler_motion.testing.bus import free_udp_port, random_multicast_group
+from crawler_motion.testing.stack import manager_process
 
 JOINTS = joint_names()
 RES = 0.0001
@@ -448,17 +448,16 @@ def _open_variant(variant: str) -> tuple[can.BusABC, list[str]]:
     """The controller's bus and the manager's bus options of a cross-process variant."""
     if variant == "socketcan":
         try:
-            bus = can.Bus(interface="socketcan", channel="vcan0")
-        except (can.CanError, OSError, ImportError) as exc:
+            bus = open_bus("socketcan", "vcan0")
+        except ValueError as exc:
             pytest.skip(f"no SocketCAN vcan0 on this machine ({exc}); create it with "
                         f"'ip link add dev vcan0 type vcan && ip link set up vcan0'")
         return bus, ["--interface", "socketcan", "--channel", "vcan0"]
-    group = f"239.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
+    group = random_multicast_group()
     port = free_udp_port()  # unique per test: sockets bind the port, not the group
     try:
-        bus = can.Bus(interface="udp_multicast", channel=group, port=port,
-                      receive_own_messages=False)
-    except (can.CanError, OSError, RuntimeError) as exc:
+        bus = open_bus("udp_multicast", group, port)
+    except (ValueError, RuntimeError) as exc:
         pytest.skip(f"udp_multicast cannot be opened on this machine: {exc}")
     return bus, ["--interface", "udp_multicast", "--channel", group, "--port", str(port)]
 
@@ -478,12 +477,7 @@ def _wait_for(bus: can.BusABC, proto: MotorProtocol, predicate, timeout: float):
 @pytest.mark.parametrize("variant", ["udp_multicast", "socketcan"])
 def test_subprocess_manager(proto, variant):
     bus, options = _open_variant(variant)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "crawler_motion.sim.motor_manager", *options,
-         "--speed-limit", "2.0", "--command-timeout", "0.5"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    proc = manager_process([*options, "--speed-limit", "2.0", "--command-timeout", "0.5"])
     try:
         beat = _wait_for(bus, proto, lambda f: isinstance(f, Heartbeat), 15.0)
         assert beat is not None, "no heartbeat from the manager subprocess"
@@ -518,3 +512,12 @@ def test_subprocess_manager(proto, variant):
             proc.communicate()
         bus.shutdown()
 
+
+
+@pytest.mark.parametrize(("times", "due"), [
+    ([0.0, 0.05, 0.1 - 1e-10, 0.15, 0.2], [True, False, True, False, True]),
+    ([0.0, 0.35, 0.4, 0.45], [True, True, False, True]),  # behind at 0.35: next at 0.45, once
+])
+def test_periodic_schedule(times, due):
+    schedule = PeriodicSchedule(0.1)
+    assert [schedule.due(t) for t in times] == due

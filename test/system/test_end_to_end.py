@@ -3,12 +3,9 @@ cross-process virtual CAN bus (python-can ``udp_multicast``), driven from this t
 
 from __future__ import annotations
 
-import os
 import random
-import signal
 import subprocess
 import sys
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -20,81 +17,51 @@ import pytest
 can = pytest.importorskip("can")
 rclpy = pytest.importorskip("rclpy")
 
-from can.interfaces.udp_multicast import UdpMulticastBus  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from crawler_motion.canbus.protocol import MotorProtocol, TargetFrame  # noqa: E402
 from crawler_motion.errors import ProtocolError  # noqa: E402
 from crawler_motion.model.config import load_config  # noqa: E402
 from crawler_motion.model.kinematics import forward_kinematics  # noqa: E402
+from crawler_motion.testing.bus import BusSpec  # noqa: E402
+from crawler_motion.testing.stack import StackProcesses, StackSpec, isolated_env  # noqa: E402
+from crawler_motion.testing.tap import BusTap, TapListener  # noqa: E402
 from crawler_motion.tools.console import Console  # noqa: E402
-from crawler_motion.tools.demo import DEMO_COMMAND_TIMEOUT, free_udp_port  # noqa: E402
 
 CFG = load_config()
 NAMES = list(CFG.robot.joint_names)
 PROTOCOL = MotorProtocol.from_config(CFG.robot)
 
 
-def _exe(name: str) -> list[str]:
-    """The installed console script ``name`` next to this interpreter, else ``python -m``."""
-    script = Path(sys.executable).parent / name
-    return [str(script)] if script.exists() else [sys.executable, "-m", f"crawler_motion.{name}"]
+class Tap(TapListener):
+    """Decodes every target and control frame on the bus (monotonic time of reception)."""
 
-
-
-class Tap:
-    """Decodes every target frame on the bus (a passive listener)."""
-
-    def __init__(self, port: int) -> None:
-        self.bus = can.Bus(interface="udp_multicast", channel=UdpMulticastBus.DEFAULT_GROUP_IPv4,
-                           port=port, receive_own_messages=False)
+    def __init__(self) -> None:
+        super().__init__()
         self.targets: list[tuple[float, dict[str, float]]] = []
         self.controls: list[str] = []
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
 
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            msg = self.bus.recv(timeout=0.05)
-            if msg is None:
-                continue
-            try:
-                frame = PROTOCOL.decode(msg)
-            except ProtocolError:
-                continue
-            if isinstance(frame, TargetFrame):
-                self.targets.append((time.monotonic(), dict(frame.positions)))
-            elif type(frame).__name__ == "ControlFrame":
-                self.controls.append(frame.command)  # type: ignore[attr-defined]
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(2.0)
-        self.bus.shutdown()
+    def on_message_received(self, msg: can.Message) -> None:
+        try:
+            frame = PROTOCOL.decode(msg)
+        except ProtocolError:
+            return
+        if isinstance(frame, TargetFrame):
+            self.targets.append((time.monotonic(), dict(frame.positions)))
+        elif type(frame).__name__ == "ControlFrame":
+            self.controls.append(frame.command)  # type: ignore[attr-defined]
 
 
 @pytest.fixture()
 def stack(tmp_path: Path) -> Iterator[dict[str, Any]]:
-    port = free_udp_port()
-    group = UdpMulticastBus.DEFAULT_GROUP_IPv4
+    bus = BusSpec.fresh()
     # a ROS domain of its own (above the session's 1..101): no node left by another test of
     # this session can talk to this stack
     domain = random.randint(102, 200)
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
-    tap = Tap(port)
-    logs = {name: tmp_path / f"{name}.log" for name in ("sim", "driver", "planner")}
-    commands = {
-        "sim": [*_exe("motor_manager_sim"), "--port", str(port), "--speed-limit", "6.0"],
-        "driver": [*_exe("driver_node"), "--ros-args", "-p", "autostart:=true", "-p",
-                   f"can_channel:={group}", "-p", f"command_timeout:={DEMO_COMMAND_TIMEOUT}",
-                   "-p", f"can_port:={port}"],
-        "planner": [*_exe("planner_node"), "--ros-args", "-p", "rate:=100.0"],
-    }
-    procs = {}
-    for name, cmd in commands.items():
-        with open(logs[name], "wb") as log:
-            procs[name] = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT)
+    tap = Tap()
+    listener = BusTap(bus.open(), [tap])
+    procs = StackProcesses(tmp_path)
+    procs.start(StackSpec(bus, rate=100.0, speed_limit=6.0).commands(), isolated_env(domain))
     rclpy.init(domain_id=domain)
     console = Console("e2e_console")
     console.printer = lambda _line: None
@@ -111,21 +78,13 @@ def stack(tmp_path: Path) -> Iterator[dict[str, Any]]:
     console.node.create_subscription(JointState, "joint_commands", on_cmd, 100)
     console.node.create_subscription(JointState, "joint_states", on_state, 100)
     try:
-        yield {"console": console, "tap": tap, "record": record, "procs": procs,
-               "logs": lambda: "\n".join(f"--- {n}: {p.read_text(errors='replace')[-1500:]}"
-                                         for n, p in logs.items())}
+        yield {"console": console, "tap": tap, "record": record, "procs": procs.procs,
+               "logs": lambda: procs.log_tails(30)}
     finally:
         console.close()
         rclpy.try_shutdown()
-        tap.close()
-        for proc in procs.values():
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        for proc in procs.values():
-            try:
-                proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+        listener.stop()
+        procs.stop()
 
 
 def test_walk_end_to_end_on_a_cross_process_bus(stack: dict[str, Any]) -> None:

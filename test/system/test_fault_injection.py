@@ -12,11 +12,6 @@ remapped into that namespace, so parallel sessions cannot feed each other faults
 from __future__ import annotations
 
 import json
-import os
-import random
-import signal
-import subprocess
-import sys
 import threading
 import time
 import uuid
@@ -35,13 +30,22 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import String  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-from crawler_motion.canbus.protocol import AxisFlags, MotorProtocol, crc8_sae_j1850  # noqa: E402
+from crawler_motion.canbus.crc import crc8_sae_j1850  # noqa: E402
+from crawler_motion.canbus.protocol import AxisFlags, MotorProtocol  # noqa: E402
 from crawler_motion.errors import ProtocolError  # noqa: E402
 from crawler_motion.model.config import load_config  # noqa: E402
 from crawler_motion.motion.gait import standing_pose  # noqa: E402
 from crawler_motion.sim.motor_manager import MotorManagerSim  # noqa: E402
+from crawler_motion.testing.bus import BusSpec, random_multicast_group  # noqa: E402
+from crawler_motion.testing.stack import (  # noqa: E402
+    EXECUTABLES,
+    StackProcesses,
+    StackSpec,
+    isolated_env,
+    ros_args,
+)
+from crawler_motion.testing.tap import BusTap, FrameRecorder, wall_to_monotonic  # noqa: E402
 from crawler_motion.tools.console import Console  # noqa: E402
-from crawler_motion.tools.demo import free_udp_port  # noqa: E402
 
 CFG = load_config()
 PROTOCOL = MotorProtocol.from_config(CFG.robot)
@@ -54,37 +58,13 @@ FRAME_IDS = {kind: frozenset(PROTOCOL.frame_ids(kind))
              for kind in ("target", "position", "status", "control", "heartbeat")}
 
 
-def _exe(name: str) -> list[str]:
-    """The installed console script ``name`` next to this interpreter, else ``python -m``."""
-    script = Path(sys.executable).parent / name
-    return [str(script)] if script.exists() else [sys.executable, "-m", f"crawler_motion.{name}"]
-
-
-
-def _to_monotonic(wall: float) -> float:
-    """A system-clock time [s] (kernel receive stamps, ROS header stamps) on the monotonic clock,
-    so scheduling delays of this busy test process do not enter the measured times."""
-    return wall - (time.time() - time.monotonic())
-
-
-class Tap:
+class Tap(FrameRecorder):
     """Every frame on the bus with its kernel receive time, decoded lazily (decoding each frame
     as it arrives would compete with the simulated manager's thread for this process)."""
 
-    def __init__(self, group: str, port: int) -> None:
-        self.bus = can.Bus(interface="udp_multicast", channel=group, port=port,
-                           receive_own_messages=False)
-        self.frames: list[tuple[float, can.Message]] = []
+    def __init__(self) -> None:
+        super().__init__(wall_to_monotonic)
         self._decoded: dict[int, Any] = {}
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            msg = self.bus.recv(timeout=0.05)
-            if msg is not None:
-                self.frames.append((_to_monotonic(msg.timestamp), msg))
 
     def of(self, kind: str, after: float = -np.inf) -> list[tuple[float, Any]]:
         """Valid frames of ``kind`` (target, position, status, control, heartbeat) received
@@ -106,11 +86,6 @@ class Tap:
         """Manager commands (MM_Control) received after ``after``."""
         return [(t, f.command) for t, f in self.of("control", after)]
 
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(2.0)
-        self.bus.shutdown()
-
 
 class Stack:
     """Planner and driver subprocesses, the simulated manager in-process, a console node."""
@@ -119,28 +94,22 @@ class Stack:
                  planner: bool = True) -> None:
         tag = uuid.uuid4().hex[:8]
         self.ns = f"/fi_{tag}"
-        group = f"239.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
-        port = free_udp_port()
-        self.tap = Tap(group, port)
-        self.sim_bus = can.Bus(interface="udp_multicast", channel=group, port=port,
-                               receive_own_messages=False)
+        bus = BusSpec.fresh(channel=random_multicast_group())
+        self.tap = Tap()
+        self.listener = BusTap(bus.open(), [self.tap])
+        self.sim_bus = bus.open()
         self.sim = MotorManagerSim(self.sim_bus, PROTOCOL, speed_limit=6.0,
                                    command_timeout=sim_timeout, initial_positions=STAND)
         self.sim.start()
-        ros = ["--ros-args", "-r", f"__ns:={self.ns}",
-               "-r", f"/diagnostics:={self.ns}/diagnostics"]
+        remaps = (f"__ns:={self.ns}", f"/diagnostics:={self.ns}/diagnostics")
+        ros = ros_args({}, remaps)
         self.logs = logs
-        self.procs: dict[str, subprocess.Popen] = {}
-        nodes = {"driver_node": ["autostart:=true", f"can_channel:={group}", f"can_port:={port}",
-                                 f"command_timeout:={command_timeout}",
-                                 f"diagnostics_period:={DIAG_PERIOD}"]}
-        if planner:
-            nodes["planner_node"] = ["rate:=100.0"]
-        for name, params in nodes.items():
-            with open(logs / f"{name}.log", "w") as out:
-                self.procs[name] = subprocess.Popen(
-                    [*_exe(name), *ros, *(a for p in params for a in ("-p", p))],
-                    stdout=out, stderr=subprocess.STDOUT, env=os.environ.copy())
+        spec = StackSpec(bus, command_timeout=command_timeout, sim=False, remaps=remaps,
+                         driver={"diagnostics_period": DIAG_PERIOD},
+                         planner={} if planner else None, names={n: n for n in EXECUTABLES})
+        self.processes = StackProcesses(logs)
+        self.processes.start(spec.commands(), isolated_env())
+        self.procs = self.processes.procs
         rclpy.init(args=["test_fault_injection", *ros])
         self.console = Console(f"fault_console_{tag}")
         self.console.printer = lambda _line: None
@@ -160,11 +129,11 @@ class Stack:
     @staticmethod
     def _joints(msg: JointState) -> tuple[float, np.ndarray]:
         stamp = msg.header.stamp
-        return _to_monotonic(stamp.sec + stamp.nanosec * 1e-9), np.array(msg.position)
+        return wall_to_monotonic(stamp.sec + stamp.nanosec * 1e-9), np.array(msg.position)
 
     def _on_status(self, msg: String) -> None:
         status = json.loads(msg.data)
-        self.statuses.append((_to_monotonic(status["time"]), status))
+        self.statuses.append((wall_to_monotonic(status["time"]), status))
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         entries = {s.name.split(": ", 1)[-1]: (s.level[0] if isinstance(s.level, bytes)
@@ -172,9 +141,10 @@ class Stack:
                                                 {kv.key: kv.value for kv in s.values})
                    for s in msg.status}
         stamp = msg.header.stamp
-        self.diagnostics.append((_to_monotonic(stamp.sec + stamp.nanosec * 1e-9), entries))
+        self.diagnostics.append(
+            (wall_to_monotonic(stamp.sec + stamp.nanosec * 1e-9), entries))
 
-    # ---- helpers ---------------------------------------------------------------------------
+    # ---- waits, services, commands --------------------------------------------------------
 
     @property
     def status(self) -> dict[str, Any]:
@@ -231,34 +201,21 @@ class Stack:
         assert self.wait(lambda: len(self.tap.of("target", time.monotonic() - 0.1)) > 4)
 
     def log_tails(self, lines: int = 15) -> str:
-        out = []
-        for name in self.procs:
-            text = (self.logs / f"{name}.log").read_text(errors="replace").splitlines()
-            out.append(f"--- {name} ---\n" + "\n".join(text[-lines:]))
-        return "\n".join(out)
+        return self.processes.log_tails(lines)
 
     def kill(self, name: str) -> float:
         """SIGKILL the subprocess ``name``; returns the time of the kill."""
         t = time.monotonic()
-        self.procs[name].send_signal(signal.SIGKILL)
-        self.procs[name].wait(5)
+        self.processes.kill(name)
         return t
 
     def close(self) -> None:
-        for proc in self.procs.values():
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        for proc in self.procs.values():
-            try:
-                proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        self.processes.stop()
         self.console.close()
         rclpy.try_shutdown()
         self.sim.stop()
         self.sim_bus.shutdown()
-        self.tap.close()
+        self.listener.stop()
 
 
 @pytest.fixture()
@@ -468,7 +425,7 @@ def test_garbage_frames_during_a_walk_are_dropped(make_stack: Callable[..., Stac
     def flood() -> None:
         i = 0
         while not stop.wait(0.005):
-            stack.tap.bus.send(garbage[i])
+            stack.listener.bus.send(garbage[i])
             sent_each[i] += 1
             i = (i + 1) % len(garbage)
 
@@ -531,7 +488,7 @@ def test_a_position_frame_repeating_its_counter_is_dropped(make_stack: Callable[
                 PROTOCOL.encode_feedback(wild, first)[0],  # group 0 again, same counter
                 *PROTOCOL.encode_feedback(stand, first + 1)[1:],
                 PROTOCOL.encode_feedback(stand, first + 1)[0]]:
-        stack.tap.bus.send(msg)
+        stack.listener.bus.send(msg)
     assert stack.wait(lambda: len([t for t, _ in stack.states if t > t0]) >= 2, 2.0)
     stack.spin(2 * DIAG_PERIOD + 0.1)
     taken = [q for t, q in stack.states if t > t0 and abs(q[0] - STAND[0] - 0.5) < 1e-3]

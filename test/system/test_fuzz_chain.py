@@ -39,20 +39,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from crawler_motion.canbus.protocol import MotorProtocol, TargetFrame
-from crawler_motion.driver.core import CommandResult, DriverCore, DriverSettings
+from crawler_motion.driver.control import CommandResult
+from crawler_motion.driver.core import DriverCore
+from crawler_motion.driver.settings import DriverSettings
 from crawler_motion.errors import CommandError
 from crawler_motion.model.config import load_config
 from crawler_motion.motion.gait import standing_pose
 from crawler_motion.planner.commands import COMMAND_KEYS, MAX_STEPS, field_ranges
-from crawler_motion.planner.core import (
-    ESTOP,
-    IDLE,
-    STANDING,
-    STOPPING,
-    WALKING,
-    JointTarget,
-    PlannerCore,
-)
+from crawler_motion.planner.core import JointTarget, PlannerCore
+from crawler_motion.planner.state import ESTOP, IDLE, STANDING, STOPPING, WALKING
 
 CFG = load_config()
 ROBOT = CFG.robot

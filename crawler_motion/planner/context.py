@@ -1,0 +1,113 @@
+"""What the planner's parts share: state, held pose, pause flag and the status journal."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NoReturn
+
+import numpy as np
+
+from crawler_motion.errors import CommandError
+from crawler_motion.planner.state import IDLE, PlannerState
+
+#: Events kept for `Journal.pop_events` (the oldest are dropped).
+MAX_EVENTS = 100
+
+
+@dataclass(frozen=True, slots=True)
+class JointTarget:
+    """Joint positions [rad] and velocities [rad/s], ``(12,)`` each, in joint-name order."""
+
+    positions: np.ndarray
+    velocities: np.ndarray
+
+
+class Journal:
+    """Status revision and stamp, refusals and the event queue of the planner."""
+
+    def __init__(self) -> None:
+        self.revision = 0
+        self.stamp = 0.0
+        self.refusals = 0
+        self.last_refusal: str | None = None
+        self.last_event: str | None = None
+        self._events: list[tuple[str, str]] = []
+
+    def touch(self, now: float) -> None:
+        """Mark a status change at steady time ``now`` [s]."""
+        self.revision += 1
+        self.stamp = float(now)
+
+    def event(self, level: str, message: str) -> None:
+        """Queue an event; ``level`` is info, warn or error."""
+        self.last_event = message
+        self._events.append((level, message))
+        del self._events[:-MAX_EVENTS]
+
+    def record_refusal(self, reason: str, now: float) -> None:
+        """Count and report a refusal at ``now`` [s]."""
+        self.last_refusal = reason
+        self.refusals += 1
+        self.touch(now)
+        self.event("warn", f"refused: {reason}")
+
+    def refuse(self, reason: str, now: float) -> NoReturn:
+        """Record a refusal and raise it as `CommandError`."""
+        self.record_refusal(reason, now)
+        raise CommandError(reason)
+
+    def pop_events(self) -> list[tuple[str, str]]:
+        """Events since the last call, as ``(level, message)``."""
+        events, self._events = self._events, []
+        return events
+
+
+class PlannerContext:
+    """State, the held pose, the last target, the pause flag and the journal of one planner.
+
+    ``n_joints`` is the number of joints of the targets.
+    """
+
+    def __init__(self, n_joints: int) -> None:
+        self.n_joints = n_joints
+        self.state: PlannerState = IDLE
+        self.paused = False
+        self.pause_reason = ""
+        self.hold: JointTarget | None = None
+        self.last_target: JointTarget | None = None
+        self.journal = Journal()
+        self.zero = np.zeros(n_joints)
+        self.zero.setflags(write=False)
+
+    def hold_pose(self, positions: np.ndarray) -> JointTarget:
+        """A target holding ``positions`` [rad] still (read-only arrays)."""
+        pos = np.array(positions, dtype=float).reshape(self.n_joints)
+        pos.setflags(write=False)
+        return JointTarget(pos, self.zero)
+
+    def enter(self, state: PlannerState, now: float) -> None:
+        """Switch to ``state`` at ``now`` [s] (a status change)."""
+        self.state = state
+        self.journal.touch(now)
+
+    def set_paused(self, paused: bool, now: float, reason: str = "") -> None:
+        """Pause (a motor-manager fault, ``reason``) or resume at ``now`` [s]; reported as an
+        event when it changes."""
+        paused = bool(paused)
+        if paused == self.paused and (not paused or reason == self.pause_reason):
+            return
+        was = self.paused
+        self.paused = paused
+        self.pause_reason = reason if paused else ""
+        self.journal.touch(now)
+        if paused and not was:
+            why = reason or "no reason given"
+            self.journal.event("warn", f"paused: motor manager fault ({why}); no new gait slot "
+                                       f"starts until it clears")
+        elif not paused:
+            self.journal.event("info", "pause cleared: motor manager OK again")
+
+    def paused_reason(self) -> str:
+        """Why a motion is refused while paused, and what to do."""
+        return (f"paused: motor manager fault ({self.pause_reason or 'no reason given'}); "
+                f"retry when it clears")

@@ -1,0 +1,187 @@
+"""Stand and sit: rest-sextic joint-space moves from the measured pose to a fixed pose."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from crawler_motion.errors import CommandError, ConfigError, KinematicsError
+from crawler_motion.model.config import Config, RobotConfig
+from crawler_motion.model.kinematics import check_limits, inverse_kinematics
+from crawler_motion.motion.fastpath import Track
+from crawler_motion.motion.trajectory import Piecewise, rest_segment
+from crawler_motion.planner.context import JointTarget, PlannerContext
+from crawler_motion.planner.state import ESTOP, MOVING, WALK_STATES, PlannerState
+
+#: Shortest stand / sit move [s].
+MIN_MOVE_TIME = 1.0
+#: Peak joint speed of a stand / sit move as a fraction of the joint's velocity limit.
+MOVE_SPEED_FRACTION = 0.5
+#: Peak speed of a rest sextic (v = a = 0 at both ends) in units of distance / duration.
+REST_PEAK_SPEED = 1.875
+#: A measurement older than this [s] cannot start a stand / sit move.
+MEASUREMENT_MAX_AGE = 1.0
+#: Measured angles up to this far outside a limit [rad] start a move from the limit.
+MEASURED_LIMIT_TOLERANCE = 0.02
+#: Sitting: feet this fraction of the way from the coxa to the standing reach (tucked).
+SIT_REACH_FRACTIONS: tuple[float, ...] = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
+#: Margin [rad] a sitting pose keeps from every joint limit.
+SIT_LIMIT_MARGIN = 0.05
+
+
+def sitting_pose(cfg: Config) -> np.ndarray:
+    """Sitting joint angles ``(n_legs, 3)`` [rad]: body at the minimum height, legs tucked.
+
+    Feet along each leg's neutral direction, as close to the coxa as `SIT_REACH_FRACTIONS`
+    allows with every joint at least `SIT_LIMIT_MARGIN` inside its limits.
+    """
+    robot = cfg.robot
+    height = robot.body_height_range[0]
+    for fraction in SIT_REACH_FRACTIONS:
+        reach = robot.l1 + fraction * (robot.reach - robot.l1)
+        feet = robot.hips.copy()
+        feet[:, 0] += reach * np.cos(robot.neutral_yaw)
+        feet[:, 1] += reach * np.sin(robot.neutral_yaw)
+        feet[:, 2] = robot.hips[:, 2] - height
+        try:
+            q = inverse_kinematics(robot, feet)
+        except KinematicsError:
+            continue
+        if np.all(q >= robot.lower + SIT_LIMIT_MARGIN) and np.all(
+                q <= robot.upper - SIT_LIMIT_MARGIN):
+            return q
+    raise ConfigError(f"no sitting pose at body height {height} m with the legs tucked lies "
+                      f"{SIT_LIMIT_MARGIN} rad inside the joint limits; check robot.yaml")
+
+
+def move_duration(cfg: Config, start: np.ndarray, end: np.ndarray) -> float:
+    """Duration [s] of a rest-sextic joint move keeping every joint at or below
+    `MOVE_SPEED_FRACTION` of its velocity limit, at least `MIN_MOVE_TIME`."""
+    distance = np.abs(np.asarray(end, dtype=float) - np.asarray(start, dtype=float))
+    limit = MOVE_SPEED_FRACTION * cfg.robot.velocity
+    return max(MIN_MOVE_TIME, float(np.max(REST_PEAK_SPEED * distance / limit)))
+
+
+def outside_tolerance(robot: RobotConfig, measured: np.ndarray) -> bool:
+    """True if a measured angle [rad] lies beyond `MEASURED_LIMIT_TOLERANCE` of its limits."""
+    lo, hi = robot.lower_limits(), robot.upper_limits()
+    return bool(np.any((measured < lo - MEASURED_LIMIT_TOLERANCE)
+                       | (measured > hi + MEASURED_LIMIT_TOLERANCE)))
+
+
+class JointMove:
+    """A stand / sit move in progress: from ``start`` to ``pose`` (``(n_legs, 3)`` [rad],
+    ``start`` clipped into the limits) starting at ``t0`` [s], ending in ``end_state``;
+    ``target`` names it ("stand" or "sit")."""
+
+    def __init__(self, cfg: Config, start: np.ndarray, pose: np.ndarray, t0: float,
+                 end_state: PlannerState, target: str) -> None:
+        robot = cfg.robot
+        start = np.clip(start, robot.lower_limits(), robot.upper_limits())
+        self.duration = move_duration(cfg, start, pose)
+        final = np.asarray(pose, dtype=float).reshape(-1)
+        segment = rest_segment(start.reshape(-1), final, self.duration, target)
+        self._track = Track([Piecewise([segment])], dims=final.size)
+        self._lo = robot.lower_limits().reshape(-1).copy()
+        self._hi = robot.upper_limits().reshape(-1).copy()
+        self.t0 = float(t0)
+        self.end_state = end_state
+        self.final = final
+        self.target = target
+
+    def done(self, now: float) -> bool:
+        """True from the end of the move on."""
+        return now - self.t0 >= self._track.duration
+
+    def at(self, now: float) -> JointTarget:
+        """Joint targets at steady time ``now`` [s] (within the limits)."""
+        pos, vel = self._track.evaluate(now - self.t0)
+        return JointTarget(np.clip(np.array(pos), self._lo, self._hi), np.array(vel))
+
+
+class MoveController:
+    """Starts (or refuses) stand / sit moves from the latest measured pose and evaluates the
+    move in progress per tick, ending it in its end state via ``ctx``.
+
+    ``measurement_max_age`` [s] is the oldest measurement a move starts from.
+    """
+
+    def __init__(self, cfg: Config, ctx: PlannerContext, measurement_max_age: float) -> None:
+        self.cfg = cfg
+        self.ctx = ctx
+        self.measurement_max_age = float(measurement_max_age)
+        self.move: JointMove | None = None
+        self._target = ""
+        self._measured: np.ndarray | None = None
+        self._measured_at = -math.inf
+
+    @property
+    def target(self) -> str:
+        """What the current (or last) move does: "stand", "sit" ("" before the first)."""
+        return self._target
+
+    def clear(self) -> None:
+        """Abandon the move in progress."""
+        self.move = None
+
+    def set_measured(self, positions: np.ndarray, now: float) -> None:
+        """The latest measured joint angles (12 or (n_legs, 3)) [rad], at steady time ``now``."""
+        q = np.array(positions, dtype=float).reshape(self.cfg.robot.n_legs, 3)
+        if not np.all(np.isfinite(q)):
+            raise CommandError("measured joint angles contain NaN or inf")
+        self._measured = q
+        self._measured_at = float(now)
+
+    def _refusal(self, now: float, what: str) -> str | None:
+        """Why a ``what`` move cannot start at ``now`` [s], or None."""
+        ctx = self.ctx
+        if ctx.state == ESTOP:
+            return f"{what} refused: e-stop latched; send reset, then stand"
+        if ctx.state in WALK_STATES:
+            return f"{what} refused while {ctx.state}: send stop and wait for STANDING"
+        if ctx.state == MOVING:
+            return f"{what} refused: a {self._target} move is in progress; wait for it to end"
+        if ctx.paused:
+            return f"{what} refused: {ctx.paused_reason()}"
+        if self._measured is None:
+            return (f"{what} refused: no measured joint_states yet; the move starts from the "
+                    f"measured pose")
+        age = now - self._measured_at
+        if age > self.measurement_max_age:
+            return (f"{what} refused: the last joint_states is {age:.2f} s old (max "
+                    f"{self.measurement_max_age:g} s); is the driver running?")
+        if outside_tolerance(self.cfg.robot, self._measured):
+            try:
+                check_limits(self.cfg.robot, self._measured)
+            except KinematicsError as exc:
+                return f"{what} refused: measured {exc}; move the joint inside its limits first"
+        return None
+
+    def start(self, now: float, pose: np.ndarray, end_state: PlannerState, what: str) -> None:
+        """Start the ``what`` move to ``pose`` [rad] at ``now`` [s]; refusals raise
+        `CommandError`."""
+        reason = self._refusal(now, what)
+        if reason is not None:
+            self.ctx.journal.refuse(reason, now)
+        assert self._measured is not None
+        move = JointMove(self.cfg, self._measured, pose, now, end_state, what)
+        was = self.ctx.state
+        self.move = move
+        self._target = what
+        self.ctx.enter(MOVING, now)
+        self.ctx.journal.event("info", f"{what}: {move.duration:.2f} s joint move from {was}")
+
+    def tick(self, now: float) -> JointTarget | None:
+        """Joint targets of the move at steady time ``now`` [s]; at its end the held pose."""
+        move, ctx = self.move, self.ctx
+        assert move is not None
+        if move.done(now):
+            ctx.hold = ctx.hold_pose(move.final)
+            ctx.enter(move.end_state, now)
+            self.move = None
+            ctx.journal.event("info", f"{move.target} done: {ctx.state}")
+            return ctx.hold
+        target = move.at(now)
+        ctx.last_target = target
+        return target

@@ -1,0 +1,64 @@
+"""Planning the next gait slot ahead of its boundary, detached so it may run in another thread."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from crawler_motion.errors import GaitError, KinematicsError, TrajectoryError
+from crawler_motion.model.config import RobotConfig
+from crawler_motion.motion.fastpath import Track
+from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams, check_trajectories
+
+#: `PlannerCore.plan_ahead(now)` plans the next slot at most this long before its boundary [s].
+PLAN_AHEAD_HORIZON = 0.2
+
+
+def plan_next(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | None,
+              stopping: bool) -> tuple[Slot | None, GaitSequencer | None, str | None]:
+    """Plan and check the next slot on ``trial`` (a copy of the walk's sequencer).
+
+    Returns ``(slot, trial, None)`` or ``(None, None, reason)``; None slot: nothing left."""
+    try:
+        if params is not None:
+            trial.set_params(params)
+        slot = trial.next_slot(stopping=stopping)
+        if slot is not None:
+            check_trajectories(robot, slot.legs, f"the next ({slot.kind}) slot")
+    except (GaitError, KinematicsError, TrajectoryError) as exc:
+        return None, None, str(exc)
+    return slot, trial, None
+
+
+@dataclass(frozen=True)
+class AheadPlan:
+    """The next slot planned ahead of its boundary, with the inputs it was planned from."""
+
+    after: Slot | None
+    pending: WalkParams | None
+    stopping: bool
+    slot: Slot | None
+    seq: GaitSequencer | None
+    error: str | None
+    track: Track | None
+
+    def matches(self, after: Slot | None, pending: WalkParams | None, stopping: bool) -> bool:
+        """True if planned after slot ``after`` with these parameters and stop flag."""
+        return self.after is after and self.pending is pending and self.stopping == stopping
+
+
+@dataclass(frozen=True)
+class AheadJob:
+    """Planning of the next slot ahead of its boundary, detached from the core: `run` uses
+    only these fields (``seq`` is a private copy), so it may run without the caller's lock."""
+
+    robot: RobotConfig
+    seq: GaitSequencer
+    after: Slot
+    pending: WalkParams | None
+    stopping: bool
+
+    def run(self) -> AheadPlan:
+        """Plan, check and prepare the evaluator of the next slot (~2-4 ms)."""
+        slot, seq, error = plan_next(self.robot, self.seq, self.pending, self.stopping)
+        track = Track(slot.legs) if slot is not None and error is None else None
+        return AheadPlan(self.after, self.pending, self.stopping, slot, seq, error, track)

@@ -1,0 +1,111 @@
+"""The planner node's ROS parameters as `ParamSpec`s, and the settings they validate to (pure).
+
+The gait defaults among them are the walk options with a ``parameter`` description, with the
+ranges and choices of the loaded config (`walk_options`). `planner_settings` is the one check
+of a complete set of values, used at start-up and on every parameter change.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from crawler_motion.errors import CommandError, ConfigError, GaitError
+from crawler_motion.model.config import Config
+from crawler_motion.motion.gait import WalkParams, validate_params
+from crawler_motion.motion.walk_options import WALK_OPTIONS, OptionType, WalkOption
+from crawler_motion.runtime.parameters import ParamSpec, validate_parameters
+
+#: Name of the read-only parameter naming the robot.yaml (declared before the others).
+CONFIG_FILE = "config_file"
+#: Range of the ``tick_priority`` parameter (0: normal scheduling; else SCHED_FIFO).
+TICK_PRIORITY_RANGE = (0, 99)
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """The validated ROS parameters of the planner node."""
+
+    config_file: str
+    rate: float  # [Hz]
+    cmd_vel_timeout: float  # [s]
+    fault_hardware_id: str
+    tick_priority: int  # 0 or a SCHED_FIFO priority
+    defaults: WalkParams  # gait defaults; body_height resolved
+
+
+def _config_file_check(value: str) -> str | None:
+    return "must be the path of a robot.yaml" if not value else None
+
+
+def _hardware_id_check(value: str) -> str | None:
+    return ("must be a non-empty string (the hardware_id of the motor manager's diagnostics)"
+            if not value.strip() else None)
+
+
+def config_file_spec(default: str) -> ParamSpec:
+    """The ``config_file`` parameter, with the shipped robot.yaml ``default``."""
+    return ParamSpec(CONFIG_FILE, default, "robot.yaml (geometry, limits, gait ranges)",
+                     read_only=True, check=_config_file_check)
+
+
+#: The parameters that do not depend on the robot config.
+NODE_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec("rate", 100.0, "joint_commands rate [Hz]; a change applies from the next tick",
+              minimum=1.0, maximum=1000.0, unit="Hz"),
+    ParamSpec("cmd_vel_timeout", 0.5, "a cmd_vel walk stops into standing after this long "
+              "without a twist [s]", minimum=0.05, maximum=10.0, unit="s"),
+    ParamSpec("fault_hardware_id", "motor_manager", "hardware_id of the motor manager in "
+              "/diagnostics (ERROR pauses)", check=_hardware_id_check),
+    ParamSpec("tick_priority", 0, "0: normal scheduling; 1-99: SCHED_FIFO priority of the tick "
+              "thread, the rest of the process one below (needs CAP_SYS_NICE)", read_only=True,
+              minimum=TICK_PRIORITY_RANGE[0], maximum=TICK_PRIORITY_RANGE[1]),
+)
+
+
+def _walk_spec(option: WalkOption, cfg: Config) -> ParamSpec:
+    assert option.parameter is not None and option.default is not None
+    description = option.described(option.parameter)
+    if option.type is OptionType.CHOICE:
+        return ParamSpec(option.name, str(option.default(cfg)), description,
+                         choices=tuple(sorted(option.allowed(cfg))))
+    lo, hi = option.range(cfg)
+    return ParamSpec(option.name, float(option.default(cfg)), description, minimum=lo,
+                     maximum=hi, unit=option.unit)
+
+
+def planner_parameters(cfg: Config, config_file: str) -> tuple[ParamSpec, ...]:
+    """Every parameter of the planner node, ``config_file`` first, for the loaded ``cfg``."""
+    walk = tuple(_walk_spec(option, cfg) for option in WALK_OPTIONS if option.parameter)
+    return (config_file_spec(config_file), *NODE_PARAMETERS, *walk)
+
+
+def default_values(specs: Sequence[ParamSpec]) -> dict[str, Any]:
+    """The default value of every parameter, by name."""
+    return {spec.name: spec.default for spec in specs}
+
+
+def planner_settings(specs: Sequence[ParamSpec], values: Mapping[str, Any], cfg: Config
+                     ) -> PlannerSettings:
+    """Validate a complete set of planner parameter ``values``; raise `CommandError` if bad.
+
+    Each value is checked against its spec (`runtime.parameters.validate_parameters`), then
+    the gait defaults together (`gait.validate_params`, the standing pose of the height).
+    """
+    missing = sorted(spec.name for spec in specs if spec.name not in values)
+    reasons = [f"missing {missing}: every planner parameter needs a value"] if missing else []
+    reasons += validate_parameters(specs, values)
+    if reasons:
+        raise CommandError("; ".join(reasons))
+    fields = {option.name: float(values[option.name]) if option.type is OptionType.NUMBER
+              else values[option.name] for option in WALK_OPTIONS if option.parameter}
+    try:
+        params = validate_params(WalkParams(**fields), cfg)
+        cfg.robot.standing_feet(params.body_height)
+    except (GaitError, ConfigError) as exc:
+        raise CommandError(f"gait defaults refused: {exc}") from exc
+    return PlannerSettings(config_file=values[CONFIG_FILE], rate=float(values["rate"]),
+                           cmd_vel_timeout=float(values["cmd_vel_timeout"]),
+                           fault_hardware_id=values["fault_hardware_id"],
+                           tick_priority=values["tick_priority"], defaults=params)

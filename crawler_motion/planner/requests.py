@@ -1,0 +1,118 @@
+"""Walk requests: a ``walk`` command or a ``cmd_vel`` twist turned into a walk or a change."""
+
+from __future__ import annotations
+
+from crawler_motion.errors import CommandError
+from crawler_motion.model.config import Config
+from crawler_motion.motion.gait import WalkParams
+from crawler_motion.planner.commands import (
+    Command,
+    finite_float,
+    is_zero_twist,
+    twist_to_params,
+)
+from crawler_motion.planner.context import PlannerContext
+from crawler_motion.planner.state import ESTOP, MOVING, STANDING, STOPPING, WALKING
+from crawler_motion.planner.upfront import UpfrontCheck
+from crawler_motion.planner.walk import WalkController
+
+
+class WalkRequests:
+    """Accepts or refuses walk commands and twists against the state, then starts the walk on
+    ``walk`` or queues new parameters for its next slot boundary."""
+
+    def __init__(self, cfg: Config, ctx: PlannerContext, walk: WalkController) -> None:
+        self.cfg = cfg
+        self.ctx = ctx
+        self.walk_ctl = walk
+        self.upfront = UpfrontCheck(cfg)
+
+    def _check_upfront(self, params: WalkParams, steps: int, now: float) -> None:
+        error = self.upfront(params, steps)
+        if error is not None:
+            self.ctx.journal.refuse(f"walk refused as a whole: {error}", now)
+
+    def _apply(self, cmd: Command, base: WalkParams, now: float) -> WalkParams:
+        try:
+            return cmd.apply(base, self.cfg)
+        except CommandError as exc:
+            self.ctx.journal.refuse(str(exc), now)
+
+    def walk(self, cmd: Command, standing_base: WalkParams, move_target: str, now: float
+             ) -> None:
+        """A ``walk`` command at ``now`` [s]: from STANDING a walk with ``standing_base``
+        overridden; while WALKING new parameters at the next slot boundary."""
+        ctx, ctl = self.ctx, self.walk_ctl
+        state = ctx.state
+        if state not in (STANDING, WALKING):
+            hint = {ESTOP: "e-stop latched; send reset, then stand",
+                    STOPPING: "stopping; wait for STANDING",
+                    MOVING: f"a {move_target} move is in progress; wait for it to end"}
+            ctx.journal.refuse(f"walk refused in state {state}: "
+                               f"{hint.get(state, 'send stand first')}", now)
+        if state == STANDING:
+            if ctx.paused:
+                ctx.journal.refuse(f"walk refused: {ctx.paused_reason()}", now)
+            base = standing_base
+        else:
+            base = ctl.pending or ctl.params
+            assert base is not None
+        params = self._apply(cmd, base, now)
+        if state == WALKING:
+            assert ctl.params is not None
+            if params.gait != ctl.params.gait:
+                ctx.journal.refuse(f"walk refused: the gait can only change while standing "
+                                   f"({ctl.params.gait} -> {params.gait}); send stop first",
+                                   now)
+        self._check_upfront(params, cmd.steps or 1, now)
+        if state == STANDING:
+            ctl.start(params, cmd.steps, "command", now)
+            return
+        ctl.pending = params
+        ctl.pending_steps = (cmd.steps,)
+        ctl.source = "command"
+        ctx.journal.touch(now)
+        ctx.journal.event("info", f"walk parameters change at the next slot boundary "
+                                  f"({cmd.steps or 'until stopped'} steps)")
+
+    def twist(self, vx: float, vy: float, wz: float, standing_base: WalkParams, now: float
+              ) -> None:
+        """A ``cmd_vel`` twist (m/s, m/s, rad/s) at ``now`` [s]; see `PlannerCore.on_twist`."""
+        ctx, ctl = self.ctx, self.walk_ctl
+        for name, value in (("linear.x", vx), ("linear.y", vy), ("angular.z", wz)):
+            if finite_float(value) is None:
+                ctx.journal.refuse(f"cmd_vel {name} must be a finite number, got "
+                                   f"{value!r:.40}", now)
+        zero = is_zero_twist(vx, vy, wz)
+        if ctx.state == WALKING and ctl.source == "cmd_vel":
+            if zero:
+                ctl.last_twist = now
+                ctl.request_stop(now, "zero cmd_vel: stopping into standing")
+                return
+            base = ctl.pending or ctl.params
+            assert base is not None
+            params = self._from_twist(vx, vy, wz, base, now)
+            ctl.last_twist = now
+            if params != (ctl.pending or ctl.params):
+                ctl.pending = params
+            return
+        if zero:
+            return
+        if ctx.state != STANDING:
+            hint = ("send stop first" if ctx.state == WALKING
+                    else "wait for STANDING" if ctx.state in (STOPPING, MOVING)
+                    else "send stand first")
+            ctx.journal.refuse(f"cmd_vel ignored in state {ctx.state}: {hint}", now)
+        if ctx.paused:
+            ctx.journal.refuse(ctx.paused_reason(), now)
+        params = self._from_twist(vx, vy, wz, standing_base, now)
+        self._check_upfront(params, 1, now)
+        ctl.start(params, None, "cmd_vel", now)
+        ctl.last_twist = now
+
+    def _from_twist(self, vx: float, vy: float, wz: float, base: WalkParams, now: float
+                    ) -> WalkParams:
+        try:
+            return twist_to_params(vx, vy, wz, self.cfg, base)
+        except CommandError as exc:
+            self.ctx.journal.refuse(str(exc), now)

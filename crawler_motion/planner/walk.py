@@ -1,0 +1,251 @@
+"""The walk in progress: gait slots committed, planned, finished and stopped, per tick."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+
+from crawler_motion.errors import GaitError, KinematicsError, TrajectoryError
+from crawler_motion.model.config import Config
+from crawler_motion.model.kinematics import inverse_kinematics
+from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
+from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams, check_trajectories
+from crawler_motion.planner.context import JointTarget, PlannerContext
+from crawler_motion.planner.next_slot import PLAN_AHEAD_HORIZON, AheadJob, AheadPlan, plan_next
+from crawler_motion.planner.state import HOLDING, STANDING, STOPPING, WALK_STATES, WALKING
+
+
+class WalkController:
+    """Slots of the current walk: starts, commits, plans (or takes a plan made ahead),
+    evaluates per tick and ends the walk into STANDING or HOLDING via ``ctx``."""
+
+    def __init__(self, cfg: Config, ctx: PlannerContext) -> None:
+        self.cfg = cfg
+        self.robot = cfg.robot
+        self.ctx = ctx
+        self._kin = FastKinematics(cfg.robot)
+        self.seq: GaitSequencer | None = None
+        self.slot: Slot | None = None
+        self.slot_t0 = 0.0
+        self.track: Track | None = None
+        self.params: WalkParams | None = None
+        self.pending: WalkParams | None = None
+        self.pending_steps: tuple[int | None] | None = None
+        self.stop_requested = False
+        self.steps_total: int | None = None
+        self.steady_planned = 0
+        self.steady_done = 0
+        self.groups = 1  # groups of the gait of the current / last walk
+        self.source: str | None = None
+        self.waiting = False
+        self.last_twist = -math.inf
+        self.ahead: AheadPlan | None = None
+
+    def clear(self) -> None:
+        """Forget the walk in progress (status counters stay for the status)."""
+        self.seq = None
+        self.slot = None
+        self.track = None
+        self.params = None
+        self.pending = None
+        self.pending_steps = None
+        self.stop_requested = False
+        self.waiting = False
+        self.ahead = None
+
+    def start(self, params: WalkParams, steps: int | None, source: str, now: float) -> None:
+        """Start walking from STANDING at ``now`` [s]; refusals raise `CommandError`."""
+        seq = GaitSequencer(self.cfg, params)
+        try:
+            slot = seq.next_slot(stopping=False)
+            assert slot is not None
+            check_trajectories(self.robot, slot.legs, "the first slot")
+        except (GaitError, KinematicsError, TrajectoryError) as exc:
+            self.ctx.journal.refuse(f"walk refused: {exc}", now)
+        self.clear()
+        self.seq = seq
+        self.params = params
+        self.steps_total = steps
+        self.steady_planned = 0
+        self.steady_done = 0
+        self.groups = seq.n_groups
+        self.source = source
+        self.ctx.state = WALKING
+        self._commit(slot, seq, now)
+        self.ctx.journal.event(
+            "info", f"walk ({source}): {params.gait}/{params.profile}, stride "
+                    f"{params.stride:g} m, heading {params.heading:g} rad, turn "
+                    f"{params.turn:g} rad/step, "
+                    f"{steps if steps is not None else 'until stopped'} steps")
+
+    def _commit(self, slot: Slot, seq: GaitSequencer, t0: float, track: Track | None = None
+                ) -> None:
+        self.seq = seq
+        self.slot = slot
+        self.slot_t0 = t0
+        self.track = track if track is not None else Track(slot.legs)
+        self.ahead = None
+        self.params = slot.params
+        if slot.kind == "steady":
+            self.steady_planned += 1
+        self.ctx.journal.touch(t0)
+
+    def request_stop(self, now: float, why: str) -> None:
+        """While WALKING: finish the slot, then stop into standing (STOPPING)."""
+        if self.ctx.state != WALKING:
+            return
+        self.ctx.state = STOPPING
+        self.stop_requested = True
+        self.pending = None
+        self.pending_steps = None
+        self.ctx.journal.touch(now)
+        self.ctx.journal.event("info", why)
+
+    def _try_slot(self, params: WalkParams | None, stopping: bool
+                  ) -> tuple[Slot | None, GaitSequencer | None, str | None]:
+        assert self.seq is not None
+        return plan_next(self.robot, copy.copy(self.seq), params, stopping)
+
+    def _plan_slot(self, t0: float) -> bool:
+        """Plan, check and start the next slot at ``t0``; False if none started."""
+        assert self.seq is not None
+        if self.pending_steps is not None:
+            self.steps_total = self.pending_steps[0]
+            self.steady_planned = 0
+            self.steady_done = 0
+            self.pending_steps = None
+        stopping, pending = self.next_inputs()
+        self.pending = None
+        ahead, self.ahead = self.ahead, None
+        track = None
+        if ahead is not None and ahead.matches(self.slot, pending, stopping):
+            slot, seq, error, track = ahead.slot, ahead.seq, ahead.error, ahead.track
+        else:
+            slot, seq, error = self._try_slot(pending, stopping)
+        if error is not None:
+            track = None
+            self.ctx.journal.event("error", f"slot check failed: {error}; stopping into "
+                                            f"standing")
+            slot, seq, error = self._try_slot(None, True)
+            if error is not None:
+                self.enter_holding(t0, f"cannot stop either ({error})", self._slot_end_pose())
+                return False
+            stopping = True
+            self.stop_requested = True
+        if slot is None or seq is None:  # already standing: nothing left to walk
+            self._finish(t0)
+            return False
+        if stopping and self.ctx.state == WALKING:
+            self.ctx.state = STOPPING
+        self._commit(slot, seq, t0, track)
+        return True
+
+    def next_inputs(self) -> tuple[bool, WalkParams | None]:
+        """(stopping, new parameters) of the next slot as things stand (mutates nothing)."""
+        assert self.seq is not None
+        if self.pending_steps is not None:
+            steps_total, steady_planned = self.pending_steps[0], 0
+        else:
+            steps_total, steady_planned = self.steps_total, self.steady_planned
+        stopping = self.stop_requested or (
+            steps_total is not None and self.seq.phase == "steady"
+            and steady_planned >= steps_total * self.seq.n_groups)
+        return stopping, (None if stopping else self.pending)
+
+    def _slot_end_pose(self) -> np.ndarray:
+        assert self.track is not None
+        pos, _ = self.track.evaluate(self.track.t_end)
+        return inverse_kinematics(self.robot, np.reshape(pos, (-1, 3)))
+
+    def _finish(self, now: float) -> None:
+        self.ctx.hold = self.ctx.hold_pose(self._slot_end_pose())
+        self.clear()
+        self.ctx.enter(STANDING, now)
+        self.ctx.journal.event("info", "walk done: STANDING")
+
+    def enter_holding(self, now: float, why: str, pose: np.ndarray | None = None) -> None:
+        """Hold ``pose`` [rad] (default: the last target) in HOLDING, the walk abandoned."""
+        ctx = self.ctx
+        if pose is None:
+            last = ctx.last_target if ctx.last_target is not None else ctx.hold
+            assert last is not None
+            pose = last.positions
+        ctx.hold = ctx.hold_pose(pose)
+        self.clear()
+        ctx.enter(HOLDING, now)
+        ctx.journal.event("error", f"holding the pose: {why}; send stand (or sit) to recover")
+
+    def _boundaries(self, now: float) -> bool:
+        """Cross every slot boundary up to ``now``; False if the walk no longer moves."""
+        assert self.slot is not None and self.seq is not None
+        ctx = self.ctx
+        end = self.slot_t0 + self.slot.duration
+        while now >= end:
+            if self.slot.kind == "steady":
+                self.steady_done += 1
+                ctx.journal.touch(end)
+            if self.seq.standing:
+                self._finish(end)
+                return False
+            if ctx.paused:
+                ctx.hold = ctx.hold_pose(self._slot_end_pose())
+                self.waiting = True
+                ctx.journal.touch(end)
+                ctx.journal.event("warn", "paused at a slot boundary: holding until the fault "
+                                          "clears")
+                return False
+            if not self._plan_slot(end):
+                return False
+            end = self.slot_t0 + self.slot.duration
+        return True
+
+    def tick(self, now: float, cmd_vel_timeout: float) -> JointTarget | None:
+        """Joint targets at steady time ``now`` [s]; a cmd_vel walk stops after
+        ``cmd_vel_timeout`` [s] without a twist."""
+        ctx = self.ctx
+        if (ctx.state == WALKING and self.source == "cmd_vel"
+                and now - self.last_twist > cmd_vel_timeout):
+            self.request_stop(now, f"cmd_vel timeout ({cmd_vel_timeout:g} s without a "
+                                   f"twist): stopping into standing")
+        if self.waiting:
+            if ctx.paused:
+                return ctx.hold
+            self.waiting = False
+            if not self._plan_slot(now):
+                return ctx.hold
+        if not self._boundaries(now):
+            return ctx.hold
+        assert self.track is not None
+        try:  # plain-float IK + Jacobian: same numbers and errors as the numpy functions
+            q, qd = joint_targets(self.track, self._kin, now - self.slot_t0)
+        except KinematicsError as exc:
+            self.enter_holding(now, f"tick at {now:.3f} s failed: {exc}")
+            return ctx.hold
+        target = JointTarget(np.array(q), np.array(qd))
+        ctx.last_target = target
+        return target
+
+    def ahead_job(self, now: float | None) -> AheadJob | None:
+        """The inputs of planning the next slot ahead, or None if there is nothing to plan
+        yet (not walking, waiting, standing, a plan already matching, or with ``now`` [s]
+        more than `PLAN_AHEAD_HORIZON` before the boundary)."""
+        if (self.ctx.state not in WALK_STATES or self.waiting or self.seq is None
+                or self.slot is None or self.seq.standing):
+            return None
+        if now is not None and (self.slot_t0 + self.slot.duration - float(now)
+                                > PLAN_AHEAD_HORIZON):
+            return None
+        stopping, pending = self.next_inputs()
+        if self.ahead is not None and self.ahead.matches(self.slot, pending, stopping):
+            return None
+        return AheadJob(self.robot, copy.copy(self.seq), self.slot, pending, stopping)
+
+    def store_ahead(self, ahead: AheadPlan) -> bool:
+        """Keep a plan made by `AheadJob.run`; False (dropped) if the slot it follows is no
+        longer the current one."""
+        if ahead.after is None or ahead.after is not self.slot:
+            return False
+        self.ahead = ahead
+        return True

@@ -1,0 +1,82 @@
+"""The simulated manager without a bus: its state machine driving axes at a speed limit."""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from crawler_motion.canbus.frames import AxisFlags
+from crawler_motion.sim.manager_state import ManagerState, ManagerStateMachine
+
+log = logging.getLogger(__name__)
+
+
+class ManagerModel:
+    """Axis positions and targets in axis order [rad] under a `ManagerStateMachine`.
+
+    Every axis moves towards its target at ``speed`` [rad/s] while the manager is enabled and
+    the command timeout [s] has not expired; ``time`` is the simulated time [s].
+    """
+
+    def __init__(self, positions: np.ndarray, speed: np.ndarray,
+                 command_timeout: float) -> None:
+        self.pos = np.array(positions, dtype=float)
+        self.target = self.pos.copy()
+        self.speed = speed
+        self.command_timeout = command_timeout
+        self.machine = ManagerStateMachine(self.pos.size)
+        self.time = 0.0
+        self._last_target_time = 0.0
+
+    @property
+    def state(self) -> ManagerState:
+        """The manager state."""
+        return self.machine.state
+
+    def hold(self) -> None:
+        """Make the axes hold where they are."""
+        self.target = self.pos.copy()
+
+    def command(self, command: str) -> None:
+        """Apply an MM_Control command (ValueError when unsupported); entering a state holds
+        the axes, entering ``enabled`` restarts the command timeout."""
+        if self.machine.command(command):
+            self.hold()
+            if self.machine.state == ManagerState.ENABLED:
+                self._last_target_time = self.time
+
+    def apply_targets(self, axes: Mapping[int, float]) -> bool:
+        """New targets [rad] by axis index; False (ignored) unless enabled."""
+        if self.machine.state != ManagerState.ENABLED:
+            return False
+        for axis, value in axes.items():
+            self.target[axis] = value
+        self._last_target_time = self.time
+        self.machine.timed_out = False
+        return True
+
+    def inject_fault(self, axis: int, kind: str) -> None:
+        """Raise a fault condition on an axis (see `ManagerStateMachine.inject_fault`)."""
+        if self.machine.inject_fault(axis, kind):
+            self.hold()
+
+    def advance(self, dt: float) -> None:
+        """Advance the simulated time by ``dt`` [s]: command timeout, then motion."""
+        if not (math.isfinite(dt) and dt >= 0):
+            raise ValueError(f"dt must be a finite time >= 0 s, got {dt!r}")
+        self.time += dt
+        if self.machine.check_timeout(self.time - self._last_target_time,
+                                      self.command_timeout):
+            self.hold()
+            log.debug("command timeout at t=%.3f s: holding", self.time)
+        if self.machine.following:
+            step = np.clip(self.target - self.pos, -self.speed * dt, self.speed * dt)
+            step[list(self.machine.stalled)] = 0.0
+            self.pos += step
+
+    def flags(self) -> list[AxisFlags]:
+        """The status bits of every axis, in axis order."""
+        return self.machine.flags()

@@ -1,0 +1,95 @@
+"""The walk option table: keys, flags, config ranges and the rules tying two options."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from crawler_motion.model.config import load_config
+from crawler_motion.motion.walk_options import (
+    OPTIONS,
+    WALK_OPTIONS,
+    OptionType,
+    Sign,
+    clearance_error,
+    field_ranges,
+    options_of,
+    stance_time_error,
+    stance_time_range,
+)
+
+CFG = load_config()
+G = CFG.gait
+
+
+def test_keys_and_flags():
+    assert [o.name for o in options_of("walk")] == [
+        "steps", "gait", "profile", "stride", "heading", "turn", "lift", "arc", "swing_time",
+        "stance_time"]
+    assert [o.name for o in options_of("stand")] == ["body_height"]
+    assert options_of("stop") == ()
+    assert [o.flag for o in WALK_OPTIONS] == [
+        "--steps", "--gait", "--profile", "--stride", "--heading", "--turn", "--lift", "--arc",
+        "--swing-time", "--stance-time", "--body-height"]
+    assert OPTIONS["swing_time"].label == "swing time"
+    assert [o.name for o in WALK_OPTIONS if o.parameter] == [
+        "gait", "profile", "stride", "lift", "arc", "swing_time", "body_height"]
+
+
+@pytest.mark.parametrize(("name", "lo", "hi", "unit", "sign"), [
+    ("stride", 0.0, 0.08, "m", Sign.NONNEGATIVE),
+    ("heading", -math.pi, math.pi, "rad", Sign.ANY),
+    ("turn", -0.35, 0.35, "rad", Sign.ANY),
+    ("lift", 0.001, 0.04, "m", Sign.POSITIVE),
+    ("arc", 0.0, 0.04, "m", Sign.NONNEGATIVE),
+    ("swing_time", 0.1, 5.0, "s", Sign.POSITIVE),
+    ("stance_time", 0.1, 150.0, "s", Sign.POSITIVE),  # 10 x (4 wave groups - 1) x 5 s
+    ("body_height", 0.05, 0.09, "m", Sign.POSITIVE),
+])
+def test_ranges_from_the_config(name, lo, hi, unit, sign):
+    option = OPTIONS[name]
+    assert option.type is OptionType.NUMBER
+    assert option.range(CFG) == pytest.approx((lo, hi))
+    assert (option.unit, option.sign) == (unit, sign)
+    assert field_ranges(CFG)[name] == (*option.range(CFG), unit)
+
+
+def test_choices_from_the_config():
+    assert OPTIONS["gait"].allowed(CFG) == tuple(G.gaits)
+    assert OPTIONS["profile"].allowed(CFG) == tuple(G.profiles)
+    assert OPTIONS["steps"].type is OptionType.COUNT
+    assert set(field_ranges(CFG)) == {o.name for o in WALK_OPTIONS
+                                      if o.type is OptionType.NUMBER}
+
+
+@pytest.mark.parametrize(("lift", "arc", "refused"), [
+    (0.03, 0.01, False),  # exactly the maximum clearance
+    (0.03, 0.01 + 1e-13, False),  # rounding
+    (0.03, 0.0101, True),
+    (0.04, 0.0, False),
+])
+def test_clearance_rule(lift, arc, refused):
+    problem = clearance_error(CFG, lift, arc)
+    assert (problem is not None) == refused
+    if refused:
+        assert problem.startswith(f"arc = {arc:g} m") and "maximum clearance 0.04 m" in problem
+
+
+@pytest.mark.parametrize(("gait", "swing", "stance", "refused"), [
+    ("diagonal", 0.6, 0.6, False),
+    ("diagonal", 0.6, 6.0, False),
+    ("diagonal", 0.6, 0.6 - 1e-13, False),
+    ("diagonal", 0.6, 0.59, True),
+    ("diagonal", 0.6, 6.01, True),
+    ("wave", 0.5, 1.5, False),
+    ("wave", 0.5, 1.0, True),
+])
+def test_stance_time_rule(gait, swing, stance, refused):
+    lo, hi = stance_time_range(CFG, gait, swing)
+    assert hi == pytest.approx(10 * lo)
+    problem = stance_time_error(CFG, gait, swing, stance)
+    assert (problem is not None) == refused
+    if refused:
+        assert f"the {gait} gait" in problem
+        assert f"needs stance_time in [{lo:g}, {hi:g}] s" in problem
