@@ -1,6 +1,7 @@
 """Packaging of crawler_motion (ament_python; also installable with plain pip)."""
 
 from glob import glob
+from os.path import isfile
 
 from setuptools import find_packages, setup
 
@@ -13,7 +14,9 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
-        (f"share/{PACKAGE}/config", sorted(glob("config/*"))),
+        # Files only: the worlds directory is installed as its own entry below.
+        (f"share/{PACKAGE}/config", sorted(f for f in glob("config/*") if isfile(f))),
+        (f"share/{PACKAGE}/config/worlds", sorted(glob("config/worlds/*.xml"))),
     ],
     python_requires=">=3.10",
     install_requires=[
@@ -23,6 +26,10 @@ setup(
         "cantools>=39",
         "msgpack>=1.0",
         "matplotlib>=3.7",
+        # the seabed simulator: physics, pictures (headless EGL needs PyOpenGL)
+        "mujoco>=3",
+        "Pillow",
+        "PyOpenGL",
     ],
     extras_require={
         "test": ["pytest>=7", "hypothesis>=6.80", "ruff>=0.5"],
@@ -41,6 +48,9 @@ setup(
             "planner_node = crawler_motion.planner.node:main",
             "motor_manager_sim = crawler_motion.sim.manager_cli:main",
             "driver_node = crawler_motion.driver.node:main",
+            "seabed_sim = crawler_motion.sim.seabed.node:main",
+            "terrain_mapper = crawler_motion.mapping.node:main",
+            "navigator = crawler_motion.navigation.node:main",
         ],
     },
 )

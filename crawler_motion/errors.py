@@ -5,12 +5,14 @@ catch one type. Messages say what was wrong and what would be right.
 
     CrawlerMotionError
     ├── ConfigError            invalid configuration file or parameter value
+    │   └── CalibrationError   unreadable or implausible leg calibration (path, key)
     ├── KinematicsError
     │   ├── UnreachableError   foot target outside the leg's workspace
     │   └── JointLimitError    joint angle outside its configured limits
     ├── TrajectoryError        inconsistent trajectory constraints
     ├── GaitError              a walk that cannot be planned or executed
     ├── CommandError           a malformed or out-of-range operator command
+    ├── BusOpenError           a CAN bus that cannot be opened (interface, channel, port)
     └── ProtocolError          CAN protocol error (argument errors raise the base)
         ├── ProtocolParseError   unreadable or inconsistent DBC / axis-map file
         │                        (path, key, line)
@@ -32,6 +34,18 @@ class CrawlerMotionError(Exception):
 
 class ConfigError(CrawlerMotionError, ValueError):
     """A configuration file or parameter value is invalid."""
+
+
+class CalibrationError(ConfigError):
+    """A leg calibration file or identification input is unreadable, inconsistent or
+    implausible. ``path``: the file (None when not from a file); ``key``: the leg or
+    ``leg.parameter`` concerned, when known."""
+
+    def __init__(self, message: str, *, path: str | Path | None = None,
+                 key: str | None = None) -> None:
+        super().__init__(message)
+        self.path = None if path is None else Path(path)
+        self.key = key
 
 
 class KinematicsError(CrawlerMotionError, ValueError):
@@ -62,6 +76,16 @@ class GaitError(CrawlerMotionError, ValueError):
 
 class CommandError(CrawlerMotionError, ValueError):
     """An operator command is malformed, unknown or out of range."""
+
+
+class BusOpenError(CrawlerMotionError, ValueError):
+    """A CAN bus cannot be opened: ``interface``, ``channel``, ``port`` say which."""
+
+    def __init__(self, message: str, *, interface: str, channel: str, port: int) -> None:
+        super().__init__(message)
+        self.interface = interface
+        self.channel = channel
+        self.port = port
 
 
 class ProtocolError(CrawlerMotionError, ValueError):

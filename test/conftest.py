@@ -8,3 +8,5 @@ import random
 # Before any rclpy import: keep parallel sessions on this machine from hearing each other.
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 101)))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+# MuJoCo picks its GL backend when first imported, whichever test imports it first: headless.
+os.environ.setdefault("MUJOCO_GL", "egl")

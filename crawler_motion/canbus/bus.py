@@ -9,6 +9,8 @@ from typing import Any
 import can
 from can.interfaces.udp_multicast import UdpMulticastBus
 
+from crawler_motion.errors import BusOpenError
+
 #: The python-can interface of the cross-process bus on one machine.
 UDP_MULTICAST = "udp_multicast"
 #: Bit rate of the motor-manager bus [bit/s].
@@ -62,11 +64,11 @@ def make_bus_factory(interface: str, channel: str, port: int = 0,
 
 def open_bus(interface: str, channel: str, port: int = 0,
              bitrate: int | None = None) -> can.BusABC:
-    """Open the bus once; a failure raises ValueError naming the bus (see `describe_bus`)."""
+    """Open the bus once; a failure raises `BusOpenError` naming the bus (`describe_bus`)."""
     try:
         return make_bus_factory(interface, channel, port, bitrate)()
     except OPEN_ERRORS as exc:
         # python-can warns "... was not properly shut down" when a half-built bus is collected
         logging.getLogger("can.bus").setLevel(logging.ERROR)
-        raise ValueError(f"cannot open the CAN bus {describe_bus(interface, channel, port)}: "
-                         f"{exc}") from exc
+        raise BusOpenError(f"cannot open the CAN bus {describe_bus(interface, channel, port)}: "
+                           f"{exc}", interface=interface, channel=channel, port=port) from exc

@@ -5,11 +5,14 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from crawler_motion.canbus.protocol import MotorProtocol
 from crawler_motion.driver.gate import MotionGate
 from crawler_motion.driver.link import BusLink
 from crawler_motion.driver.outbox import Outbox
 from crawler_motion.driver.settings import DriverSettings
+from crawler_motion.driver.step_bound import StepBound
 from crawler_motion.errors import ProtocolError
 from crawler_motion.model.joint_state import JointStateError, JointStateRule
 from crawler_motion.runtime.log import Severity
@@ -33,7 +36,8 @@ class MotionControl:
 
     def __init__(self, protocol: MotorProtocol, link: BusLink, gate: MotionGate,
                  outbox: Outbox, settings: Callable[[], DriverSettings],
-                 clock: Callable[[], float], say: Callable[[str, Severity, str], None]) -> None:
+                 clock: Callable[[], float], say: Callable[[str, Severity, str], None],
+                 measured: Callable[[], np.ndarray]) -> None:
         self.protocol, self.link, self.gate, self.outbox = protocol, link, gate, outbox
         self._settings = settings
         self._clock = clock
@@ -41,9 +45,11 @@ class MotionControl:
         self._rule = JointStateRule(protocol.joint_names, protocol.lower, protocol.upper,
                                     subject="joint command")
         self._target_counter = 0
+        self._measured = measured
+        self.bound = StepBound(outbox.target_period)
         self.last_refusal = ""
-        self.counts = dict.fromkeys(("commands", "refused", "blocked", "inactive",
-                                     "watchdog_trips", "estops"), 0)
+        self.counts = dict.fromkeys(("commands", "refused", "step_refused", "blocked",
+                                     "inactive", "watchdog_trips", "estops"), 0)
 
     # ---- sending ---------------------------------------------------------------------------
 
@@ -117,6 +123,7 @@ class MotionControl:
 
     def _enable(self) -> tuple[bool, str]:
         self.outbox.targets = []
+        self.bound.forget()
         sent = self.control(self.gate.enable())
         return True, "enable sent" if sent else "enable queued (bus down); retrying"
 
@@ -155,6 +162,15 @@ class MotionControl:
             self.counts["blocked"] += 1
             return CommandResult(False, self.gate.blocked_reason())
         now = self._clock()
+        s = self._settings()
+        too_far = self.bound.check(q, self._measured(), now, s.step_speed_limit, s.step_margin,
+                                   s.command_timeout)
+        if too_far:
+            self.counts["step_refused"] += 1
+            self.last_refusal = too_far
+            self._say("step", Severity.WARNING, f"joint command refused: {too_far}")
+            return CommandResult(False, too_far)
+        self.bound.sent(q, now)
         self._target_counter += 1
         self.counts["commands"] += 1
         self.gate.accept(now)

@@ -33,18 +33,22 @@ import can
 import numpy as np
 
 from crawler_motion.canbus.protocol import AxisFlags, Heartbeat, MotorProtocol
+from crawler_motion.driver.bus_watch import BusWatch
 from crawler_motion.driver.control import CommandResult, MotionControl
 from crawler_motion.driver.diagnostics import DriverDiagnostics, StatusEntry
 from crawler_motion.driver.feedback import Feedback
 from crawler_motion.driver.gate import MotionGate
 from crawler_motion.driver.link import BusLink
 from crawler_motion.driver.outbox import Outbox
+from crawler_motion.driver.senders import SenderWatch
 from crawler_motion.driver.settings import DriverSettings
 from crawler_motion.runtime.log import Severity, Throttle, log
 from crawler_motion.runtime.loop import BackgroundLoop
 
 #: Frames taken off the bus per `DriverCore.poll` at most (a flooding bus cannot stall the loop).
 MAX_FRAMES_PER_POLL = 500
+#: Commands are refused this long after two publishers of joint_commands were seen racing [s].
+SENDER_CONFLICT_HOLD = 2.0
 #: Period of the background loop of `DriverCore.start` [s]: watchdog and reopen resolution.
 TICK_PERIOD = 0.005
 
@@ -56,11 +60,17 @@ class DriverCounters:
     tx: int = 0  # frames sent
     tx_errors: int = 0  # send attempts the bus refused (each retry counts)
     tx_stale: int = 0  # commands dropped unsent: older than one period, or superseded
+    rx_malformed: int = 0  # datagrams / frames the interface could not unpack (dropped)
     rx: int = 0  # frames received
     rx_dropped: int = 0  # undecodable frames: unknown id, wrong DLC, checksum, range...
-    rx_ignored: int = 0  # valid controller-side frames (our own echo, another controller)
+    rx_ignored: int = 0  # controller-side frames the driver sent itself (loop-back)
+    foreign_targets: int = 0  # target frames with the driver's ids it did not send
+    foreign_controls: int = 0  # control frames the driver did not send
+    rx_conflicts: int = 0  # two different position / status frames with one counter
+    sender_conflicts: int = 0  # joint_commands from more than one publisher, interleaved
     commands: int = 0  # joint commands accepted and encoded
     refused: int = 0  # joint commands refused as invalid
+    step_refused: int = 0  # joint commands refused: a step beyond the step bound
     blocked: int = 0  # valid joint commands not sent: e-stop, watchdog, not enabled
     inactive: int = 0  # joint commands dropped while inactive
     feedback: int = 0  # complete joint-state vectors emitted
@@ -104,11 +114,16 @@ class DriverCore:
         self._hb_period = protocol.cycle_period("heartbeat")
         self._gate = MotionGate()
         self._outbox = Outbox(protocol.cycle_period("target"))
-        self._feedback = Feedback(protocol)
+        self._watch = BusWatch(frozenset(protocol.frame_ids("target")),
+                               frozenset(protocol.frame_ids("control")))
+        self._link.on_sent = lambda msg: self._watch.sent(msg, self._clock())
+        self._senders = SenderWatch()
+        self._feedback = Feedback(protocol, self._watch)
         self._diagnostics = DriverDiagnostics(self._link, self._gate, self._feedback,
-                                              self._outbox, self._hb_period)
+                                              self._outbox, self._hb_period, self._watch)
         self._control = MotionControl(protocol, self._link, self._gate, self._outbox,
-                                      lambda: self._settings, clock, self._say)
+                                      lambda: self._settings, clock, self._say,
+                                      lambda: self._feedback.positions)
 
     # ---- observation -----------------------------------------------------------------------
 
@@ -124,6 +139,10 @@ class DriverCore:
                              doc="True from `estop` until `reset`.")
     estop_reason = property(lambda self: self._gate.estop_reason or "",
                             doc="Why the ESTOP was latched (\"\" when it is not).")
+    gate_state = property(lambda self: self._gate.state.value,
+                          doc="The motion gate's state (`gate.GateState` value).")
+    enable_epoch = property(lambda self: self._gate.enable_epoch,
+                            doc="Number of enables sent so far (the planner resumes on it).")
     watchdog_tripped = property(lambda self: self._gate.tripped,
                                 doc="True from a watchdog trip until `enable` / `activate`.")
     motion_allowed = property(lambda self: self._gate.motion_allowed,
@@ -139,7 +158,9 @@ class DriverCore:
         """A snapshot of the counters."""
         with self._lock:
             return DriverCounters(**self._link.counts, **self._feedback.counts,
-                                  tx_stale=self._outbox.stale, **self._control.counts)
+                                  **self._watch.counts, tx_stale=self._outbox.stale,
+                                  sender_conflicts=self._senders.conflicts,
+                                  **self._control.counts)
 
     @property
     def positions(self) -> np.ndarray:
@@ -277,7 +298,20 @@ class DriverCore:
             return self._control.reset()
 
     def submit(self, names: Sequence[str], positions: Sequence[float],
-               velocities: Sequence[float] = (), efforts: Sequence[float] = ()) -> CommandResult:
-        """Validate, encode and send one joint command (names and positions [rad])."""
+               velocities: Sequence[float] = (), efforts: Sequence[float] = (),
+               sequence: int | None = None) -> CommandResult:
+        """Validate, encode and send one joint command (names and positions [rad]);
+        ``sequence`` is its publisher's message number (`senders.SenderWatch`): commands of
+        two racing publishers raise an alarm and none is sent while it lasts."""
         with self._lock:
+            now = self._clock()
+            if self._senders.note(sequence, now):
+                self._watch.alarm("joint_commands from more than one publisher (interleaved "
+                                  "sequence numbers): none is sent while this lasts", now)
+                self._say("senders", Severity.ERROR, self._watch.last_alarm)
+            if self._senders.last_conflict_time is not None and (
+                    now - self._senders.last_conflict_time <= SENDER_CONFLICT_HOLD):
+                self._control.counts["blocked"] += 1
+                return CommandResult(False, "refused: joint_commands from more than one "
+                                            "publisher")
             return self._control.submit(names, positions, velocities, efforts)

@@ -6,8 +6,9 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 
+from crawler_motion.driver.bus_watch import BusWatch
 from crawler_motion.driver.feedback import Feedback
-from crawler_motion.driver.gate import MotionGate
+from crawler_motion.driver.gate import GateState, MotionGate
 from crawler_motion.driver.link import BusLink
 from crawler_motion.driver.outbox import Outbox
 from crawler_motion.driver.settings import DriverSettings
@@ -64,8 +65,9 @@ class DriverDiagnostics:
     """Builds the status entries from the driver's parts (read with the core's lock held)."""
 
     def __init__(self, link: BusLink, gate: MotionGate, feedback: Feedback, outbox: Outbox,
-                 heartbeat_period: float) -> None:
+                 heartbeat_period: float, watch: BusWatch) -> None:
         self.link, self.gate, self.feedback, self.outbox = link, gate, feedback, outbox
+        self.watch = watch
         self.heartbeat_period = heartbeat_period  # [s]
         self._joint_of_axis = {m.axis: m.joint for m in feedback.protocol.axis_map}
 
@@ -101,6 +103,23 @@ class DriverDiagnostics:
               and fb.heartbeat_time - self.gate.last_enable_tx > self.heartbeat_period):
             errors.append("motor manager is disabled although the driver enabled it; "
                           "call ~/enable")
+        if fb.heartbeat_time is not None and now - fb.heartbeat_time <= hb_timeout:
+            self._contradictions(now, hb_timeout, state, errors)
+
+    def _contradictions(self, now: float, hb_timeout: float, state: str,
+                        errors: list[str]) -> None:
+        """A fresh heartbeat that contradicts what the driver commanded or measured."""
+        gate, fb = self.gate, self.feedback
+        if state == "hold" and gate.state is GateState.ENABLED and gate.enable_confirmed:
+            errors.append("motor manager in hold, which the driver did not command (a "
+                          "spoofed frame or another controller): call ~/enable")
+        elif state == "enabled" and gate.state not in (GateState.ENABLED, GateState.HOLDING):
+            errors.append(f"motor manager enabled, which the driver did not command (driver "
+                          f"{gate.state.value})")
+        since = fb.position_time if fb.position_time is not None else self.link.open_time
+        if since is not None and now - since > hb_timeout:
+            errors.append(f"heartbeat without positions for {now - since:.3f} s: the manager "
+                          f"is frozen or the heartbeat forged")
 
     def _gate_problems(self, settings: DriverSettings, errors: list[str],
                        warnings: list[str]) -> None:
@@ -130,6 +149,9 @@ class DriverDiagnostics:
         hb_timeout = settings.heartbeat_timeout_periods * self.heartbeat_period
         self._link_problems(now, hb_timeout, settings, errors, warnings)
         self._gate_problems(settings, errors, warnings)
+        alarm = self.watch.active_alarm(now)  # foreign frames, forged counters, racing senders
+        if alarm:
+            errors.append(alarm)
         level, message = _summary(errors, warnings, "enabled, forwarding joint_commands")
         fb, gate, control = self.feedback, self.gate, self.outbox.last_control
         values = (
@@ -151,6 +173,11 @@ class DriverDiagnostics:
             ("refused", str(counts["refused"])),
             ("blocked", str(counts["blocked"])),
             ("dropped_inactive", str(counts["inactive"])),
+            ("step_refused", str(counts["step_refused"])),
+            ("foreign_frames", str(counts["foreign_targets"] + counts["foreign_controls"])),
+            ("rx_conflicts", str(counts["rx_conflicts"])),
+            ("sender_conflicts", str(counts["sender_conflicts"])),
+            ("last_alarm", self.watch.last_alarm),
             ("last_refusal", last_refusal),
         )
         return StatusEntry("motor manager", level, message, values)

@@ -12,19 +12,24 @@ from crawler_motion.canbus.protocol import (
     MotorProtocol,
     PositionFeedback,
 )
+from crawler_motion.driver.bus_watch import BusWatch
 
 
 class Feedback:
     """What the manager reported: positions, per-axis flags, the heartbeat (steady times [s]).
 
     `handle` emits a joint-state vector (joint order [rad]) once every position group has been
-    received since the last one, so each vector is one complete, fresh measurement. Position
-    and status frames whose counter repeats the previous one of their group are stale and
-    dropped; undecodable frames are dropped; controller-side frames are ignored; all counted.
+    received since the last one, so each vector is one complete, fresh measurement. Position,
+    status and heartbeat frames whose counter repeats the previous one of their group are
+    dropped (a heartbeat whose counter does not advance is no sign of life): as
+    stale when identical, as a conflict (two senders claiming one counter: an attack, alarmed
+    on ``watch``) when they differ. Undecodable frames are dropped; controller-side frames go
+    to ``watch`` (own loop-back or foreign); all counted.
     """
 
-    def __init__(self, protocol: MotorProtocol) -> None:
+    def __init__(self, protocol: MotorProtocol, watch: BusWatch) -> None:
         self.protocol = protocol
+        self.watch = watch
         self._index = {name: i for i, name in enumerate(protocol.joint_names)}
         self._position_groups = len(protocol.frame_ids("position"))
         self.counts = dict.fromkeys(("rx", "rx_dropped", "rx_ignored", "feedback"), 0)
@@ -35,7 +40,8 @@ class Feedback:
         """Forget everything received (a new bus)."""
         self.positions = np.full(self.protocol.n_axes, np.nan)
         self._fresh: set[int] = set()
-        self._last_counter: dict[tuple[type, int], int] = {}  # (frame type, group) -> counter
+        # (frame type, group) -> (counter, data) of the last frame taken
+        self._last_counter: dict[tuple[type, int], tuple[int, bytes]] = {}
         self.position_time: float | None = None
         self.flags: dict[int, AxisFlags] = {}
         self.flags_time: dict[int, float] = {}
@@ -45,19 +51,28 @@ class Feedback:
     def handle(self, msg: can.Message, now: float) -> tuple[Heartbeat | None, np.ndarray | None]:
         """Take one received frame: (the heartbeat it was, the vector it completed)."""
         self.counts["rx"] += 1
-        if self.protocol.sender(msg) == "controller":
-            self.counts["rx_ignored"] += 1  # our own echo or another controller: not decoded
+        controller = self.protocol.sender(msg) == "controller"
+        if controller and self.watch.own(msg, now):
+            self.counts["rx_ignored"] += 1  # our own loop-back: not decoded
             return None, None
         try:
             frame = self.protocol.decode(msg)
         except Exception as exc:  # ProtocolError, or a malformed Message object
             return self._drop(str(exc))
-        if isinstance(frame, (PositionFeedback, AxisStatus)):
-            key = (type(frame), frame.group)
-            if self._last_counter.get(key) == frame.counter:  # stuck sender or replay
-                return self._drop(f"{type(frame).__name__} group {frame.group}: counter "
-                                  f"{frame.counter} repeated (stale frame)")
-            self._last_counter[key] = frame.counter
+        if controller:  # valid, and not ours: another controller or an attacker
+            self.watch.foreign(msg, now)
+            return None, None
+        if isinstance(frame, (PositionFeedback, AxisStatus, Heartbeat)):
+            key, data = (type(frame), getattr(frame, "group", 0)), bytes(msg.data)
+            last = self._last_counter.get(key)
+            if last is not None and last[0] == frame.counter:
+                what = f"{type(frame).__name__} group {key[1]}: counter {frame.counter}"
+                if last[1] != data:  # two senders claim the counter: neither is trusted
+                    self.watch.conflict(f"{what} sent twice with different data (a forged "
+                                        f"frame on the bus)", now)
+                    return self._drop(f"{what} conflicting")
+                return self._drop(f"{what} repeated (stale frame)")  # stuck sender or replay
+            self._last_counter[key] = (frame.counter, data)
         if isinstance(frame, PositionFeedback):
             return None, self._positions(frame, now)
         if isinstance(frame, AxisStatus):
@@ -68,8 +83,6 @@ class Feedback:
             self.heartbeat = frame
             self.heartbeat_time = now
             return frame, None
-        else:  # a target or control frame: our own echo or another controller
-            self.counts["rx_ignored"] += 1
         return None, None
 
     def _drop(self, reason: str) -> tuple[None, None]:

@@ -47,6 +47,7 @@ class MotionGate:
         self.last_estop_tx = -math.inf
         self._enable_confirmed = False
         self._enable_resends = 0
+        self.enable_epoch = 0  # incremented by every `enable` (the planner resumes on it)
 
     # ---- observation -----------------------------------------------------------------------
 
@@ -71,6 +72,11 @@ class MotionGate:
         return self._base in (GateState.HOLDING, GateState.TRIPPED)
 
     @property
+    def enable_confirmed(self) -> bool:
+        """True once a heartbeat reported ``enabled`` after the last ``enable`` sent."""
+        return self._enable_confirmed
+
+    @property
     def latched(self) -> bool:
         """True from `estop` until `reset`."""
         return self.estop_reason is not None
@@ -93,6 +99,7 @@ class MotionGate:
     def enable(self) -> str:
         """Enable (from `activate` or ``~/enable``): disarms the watchdog; sends ``enable``."""
         self._base = GateState.ENABLED
+        self.enable_epoch += 1
         self._enable_resends = 0
         self._armed = False
         self.last_command = None

@@ -18,6 +18,18 @@ SEND_TIMEOUT = 0.0
 FAILED_FRAMES_BEFORE_REOPEN = 3
 
 
+def is_malformed_frame(exc: BaseException) -> bool:
+    """True if a receive error is one bad datagram, not a broken transport.
+
+    python-can's ``udp_multicast`` raises ``CanOperationError("could not unpack received
+    message")`` for a datagram that is not a packed CAN message, with the decoding error as its
+    cause; the socket is fine. A cause that is an ``OSError`` (or none) is a transport error.
+    """
+    cause = exc.__cause__
+    return (isinstance(exc, can.CanOperationError) and cause is not None
+            and not isinstance(cause, OSError))
+
+
 class DriverError(CrawlerMotionError):
     """The driver cannot do what was asked (e.g. the CAN bus cannot be opened)."""
 
@@ -35,6 +47,7 @@ class BusLink:
     `open` and by every reopen; those buses are shut down here).
 
     Every send is tried ``1 + retries()`` times without waiting; each refusal is counted. A
+    malformed received frame (`is_malformed_frame`) is counted and dropped. A transport
     receive error, or `FAILED_FRAMES_BEFORE_REOPEN` frames in a row that could not be sent,
     take the bus down: an owned bus is shut down and rebuilt every ``reopen_period()``, a given
     bus is simply tried again after it.
@@ -70,8 +83,9 @@ class BusLink:
         self._failed_frames = 0
         self.open_time: float | None = None
         self.last_tx_error = ""
-        self.counts = dict.fromkeys(("tx", "tx_errors", "bus_failures", "reopens",
-                                     "reopen_failures"), 0)
+        self.on_sent: Callable[[can.Message], None] | None = None  # each frame that went out
+        self.counts = dict.fromkeys(("tx", "tx_errors", "rx_malformed", "bus_failures",
+                                     "reopens", "reopen_failures"), 0)
 
     @property
     def is_open(self) -> bool:
@@ -131,11 +145,15 @@ class BusLink:
             return None
         try:
             return bus.recv(timeout=timeout)
-        except Exception as exc:  # bus gone / interface down
+        except Exception as exc:  # bus gone / interface down, or one malformed datagram
             with self._lock:
                 text = f"receive failed: {type(exc).__name__}: {exc}"
                 self._on_rx_error(text)
-                if bus is self.bus:
+                if is_malformed_frame(exc):
+                    self.counts["rx_malformed"] += 1
+                    self._say("rx", Severity.WARNING, f"malformed frame dropped: {text} "
+                              f"({exc.__cause__!r})")
+                elif bus is self.bus:
                     self.fail(text)
             return None
 
@@ -168,6 +186,8 @@ class BusLink:
                 self.last_tx_error = f"{type(exc).__name__}: {exc}"
                 continue
             self.counts["tx"] += 1
+            if self.on_sent is not None:
+                self.on_sent(msg)
             return True
         return False
 

@@ -14,28 +14,29 @@ while inactive, so the measured pose is known before the motors are enabled).
 Topics: sub ``joint_commands`` (sensor_msgs/JointState, depth 1, best effort: only the newest
 command matters), ``estop`` (std_msgs/Bool, true latches), ``planner_status`` (std_msgs/String
 JSON; ``"state": "ESTOP"`` latches); pub ``joint_states`` (sensor_msgs/JointState, measured,
-joint order, stamped on reception of a complete position cycle), ``/diagnostics``.
+joint order, stamped on reception of a complete position cycle), ``/diagnostics``,
+``driver_status`` (std_msgs/String JSON, transient local: ``state`` the motion gate's state,
+``enable_epoch`` the number of enables sent, ``lifecycle``, ``reason``; on every change within
+`LEVEL_WATCH_PERIOD` and every ``diagnostics_period``; the planner ends a walk on a state other
+than ``enabled`` and resumes from the measured pose on a new epoch).
 Services: ``~/enable``, ``~/estop``, ``~/reset`` (std_srvs/Trigger) and the lifecycle services.
 """
 
 from __future__ import annotations
 
 import json
-import sys
+import uuid
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import can
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, String
 from std_srvs.srv import Trigger
@@ -49,6 +50,7 @@ from crawler_motion.driver.settings import PARAMETERS, DriverSettings, default_f
 from crawler_motion.errors import ConfigError, CrawlerMotionError, ProtocolError
 from crawler_motion.model.config import load_config
 from crawler_motion.runtime.parameters import validate_parameters
+from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 from crawler_motion.runtime.ticker import set_process_priority
 
@@ -58,6 +60,8 @@ N_JOINTS = 12
 COMMAND_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 #: Period of the check for changed diagnostic levels, published at once when one changed [s].
 LEVEL_WATCH_PERIOD = 0.05
+STATUS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 
 
@@ -103,6 +107,19 @@ def diagnostic_array(entries: list[StatusEntry], node_name: str,
     return array
 
 
+def driver_status(core: DriverCore | None, lifecycle: str, latched: str,
+                  configure_error: str, instance: str) -> dict[str, Any]:
+    """The ``driver_status`` object: gate state, enable epoch, lifecycle state, reason, the
+    ``instance`` token of this driver process and the ``command_timeout`` [s]."""
+    common = {"lifecycle": lifecycle, "instance": instance}
+    if core is None:
+        return {"state": "estop" if latched else "inactive", "enable_epoch": 0, **common,
+                "reason": latched or configure_error or "not configured"}
+    return {"state": core.gate_state, "enable_epoch": core.enable_epoch, **common,
+            "command_timeout": core.settings.command_timeout, "reason": core.estop_reason or (
+                "" if core.motion_allowed else "motors not enabled / watchdog tripped")}
+
+
 class DriverNode(LifecycleNode):
     """The lifecycle driver node; ``bus_factory`` replaces the bus the parameters describe."""
 
@@ -121,6 +138,8 @@ class DriverNode(LifecycleNode):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._joint_state_pub = self.create_publisher(JointState, "joint_states", 10)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._driver_status_pub = self.create_publisher(String, "driver_status", STATUS_QOS)
+        self._driver_status, self._instance = "", uuid.uuid4().hex[:12]  # new at every start
         self.create_subscription(JointState, "joint_commands", self._on_joint_commands,
                                  COMMAND_QOS)
         self.create_subscription(Bool, "estop", self._on_estop_topic, 10)
@@ -130,8 +149,7 @@ class DriverNode(LifecycleNode):
         self.create_service(Trigger, "~/reset", self._on_reset)
         self._diagnostics_timer = self.create_timer(
             self._value("diagnostics_period"), self._publish_diagnostics, clock=self._steady)
-        # a change of any level is published at once, not at the next period: the planner
-        # pauses on ERROR, and a fault must not wait up to diagnostics_period to reach it
+        # a level change goes out at once: the planner pauses on ERROR without waiting a period
         self._published_levels: tuple[tuple[str, int], ...] = ()
         self.create_timer(LEVEL_WATCH_PERIOD, self._watch_levels, clock=self._steady)
         if self._value("autostart") and self.trigger_configure() == SUCCESS:
@@ -254,12 +272,13 @@ class DriverNode(LifecycleNode):
 
     # ---- commands and safety ---------------------------------------------------------------
 
-    def _on_joint_commands(self, msg: JointState) -> None:
+    def _on_joint_commands(self, msg: JointState, info: Mapping[str, Any]) -> None:
         core = self._core
         if core is None:
             self._dropped_unconfigured += 1
             return
-        result = core.submit(msg.name, msg.position, msg.velocity, msg.effort)
+        result = core.submit(msg.name, msg.position, msg.velocity, msg.effort,  # MessageInfo
+                             sequence=info.get("publication_sequence_number"))  # SenderWatch
         if not result.accepted and core.active:
             self.get_logger().warning(f"joint_commands refused: {result.reason}",
                                       throttle_duration_sec=1.0)
@@ -300,6 +319,7 @@ class DriverNode(LifecycleNode):
     def _answer(self, service: str, response: Trigger.Response,
                 result: tuple[bool, str]) -> Trigger.Response:
         response.success, response.message = result
+        self._publish_driver_status(always=False)  # the planner learns it before the caller
         self.get_logger().info(f"~/{service}: {response.message}")
         return response
 
@@ -325,13 +345,22 @@ class DriverNode(LifecycleNode):
 
         publish_unless_shut_down(self._joint_state_pub, make, self.context)
 
+    def _publish_driver_status(self, always: bool) -> None:
+        text = json.dumps(driver_status(self._core, self._label, self._latched,
+                                        self._configure_error, self._instance))
+        if always or text != self._driver_status:
+            self._driver_status = text
+            self._driver_status_pub.publish(String(data=text))
+
     def _watch_levels(self) -> None:
+        self._publish_driver_status(always=False)
         if self._core is not None:
             entries = self._core.status()
             if tuple((e.name, e.level) for e in entries) != self._published_levels:
                 self._publish_diagnostics(entries)
 
     def _publish_diagnostics(self, entries: list[StatusEntry] | None = None) -> None:
+        self._publish_driver_status(always=entries is None)  # periodic: driver_status too
         if self._core is None:
             entries = [unconfigured_entry(self._label, self._configure_error, self._latched,
                                           self._dropped_unconfigured)]
@@ -346,24 +375,7 @@ class DriverNode(LifecycleNode):
 def main(args: list[str] | None = None) -> None:
     """Run the driver node until Ctrl-C / shutdown (``driver_node --ros-args -p ...``)."""
     # the CAN thread and the executor share the GIL: hand it over within 0.5 ms, not 5 ms
-    sys.setswitchinterval(0.0005)
-    rclpy.init(args=args)
-    node = None
-    failed = ""
-    try:
-        node = DriverNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (CrawlerMotionError, ParameterException) as exc:  # invalid parameters at start-up
-        failed = f"driver_node: error: {exc}"
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    if failed:
-        print(failed, file=sys.stderr)
-        sys.exit(1)
+    run_node(DriverNode, "driver_node: error", args, switch_interval=0.0005)
 
 
 if __name__ == "__main__":

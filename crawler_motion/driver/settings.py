@@ -7,9 +7,7 @@ from dataclasses import dataclass, fields
 from enum import Enum
 from typing import Any
 
-import can
-from can.interfaces.udp_multicast import UdpMulticastBus
-
+from crawler_motion.runtime.bus_parameters import BUS_PARAMETERS
 from crawler_motion.runtime.parameters import ParamSpec, not_empty, validate_parameters
 
 
@@ -27,23 +25,8 @@ class OnTimeout(str, Enum):
     DISABLE = "disable"
 
 
-def _python_can_interface(value: str) -> str | None:
-    if value in can.VALID_INTERFACES:
-        return None
-    return (f"can_interface {value!r} is not a python-can interface; use one of "
-            f"{sorted(can.VALID_INTERFACES)}")
-
-
 PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec("can_interface", "udp_multicast",
-              "python-can interface: udp_multicast (cross-process on loopback), socketcan "
-              "(vcan0 / can0), virtual (in-process), ...", read_only=True,
-              check=_python_can_interface),
-    ParamSpec("can_channel", UdpMulticastBus.DEFAULT_GROUP_IPv4,
-              "bus channel: multicast group for udp_multicast, interface name for socketcan",
-              read_only=True, check=not_empty),
-    ParamSpec("can_port", 0, "UDP port of udp_multicast; 0 = the interface default (43113)",
-              read_only=True, minimum=0, maximum=65535),
+    *BUS_PARAMETERS,
     ParamSpec("bitrate", 1_000_000, "CAN bitrate [bit/s] for interfaces that set it",
               read_only=True, minimum=10_000, maximum=1_000_000, unit="bit/s"),
     ParamSpec("dbc_file", "", "DBC file of the motor-manager protocol (default: the shipped "
@@ -65,6 +48,12 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               unit="s"),
     ParamSpec("on_timeout", "hold", "manager command sent when the watchdog trips: hold or "
               "disable", choices=tuple(c.value for c in OnTimeout)),
+    ParamSpec("step_speed_limit", 10.0, "joint speed bounding every command's step from the "
+              "last sent target (after enable: from the measured pose); a command stepping "
+              "further than this x the time since the last one + step_margin is refused",
+              minimum=0.01, maximum=100.0, unit="rad/s"),
+    ParamSpec("step_margin", 0.05, "allowance added to the step bound (jitter of the command "
+              "arrival, lag of the measurement)", minimum=0.0, maximum=1.0, unit="rad"),
     ParamSpec("heartbeat_timeout_periods", 3, "heartbeat periods without a heartbeat before "
               "the manager is reported lost (ERROR)", minimum=1, maximum=100),
     ParamSpec("diagnostics_period", 1.0, "period of /diagnostics [s]", minimum=0.05,
@@ -95,6 +84,8 @@ class DriverSettings:
     on_timeout: str = OnTimeout.HOLD.value
     on_deactivate: str = OnDeactivate.HOLD.value
     heartbeat_timeout_periods: int = 3
+    step_speed_limit: float = 10.0  # [rad/s]
+    step_margin: float = 0.05  # [rad]
     send_retries: int = 2
     reopen_period: float = 0.2  # [s]
 

@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from crawler_motion.errors import ConfigError
+from crawler_motion.model.calibration_file import LegCalibration, with_calibration
 
 PACKAGE = "crawler_motion"
 JOINT_KINDS: tuple[str, ...] = ("root", "shoulder", "knee")
@@ -99,6 +100,13 @@ class RobotConfig:
     body_height: float  # standing hip height above the ground [m]
     body_height_range: tuple[float, float]
     name: str = "crawler"
+    #: Per-leg geometry with assembly errors (None: the nominal geometry above).
+    geometry: LegCalibration | None = None
+
+    @property
+    def calibrated(self) -> bool:
+        """True when a leg's geometry differs from the nominal one (the IK then refines)."""
+        return self.geometry is not None and not self.geometry.is_nominal
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -335,6 +343,9 @@ def load_config(path: str | Path | None = None) -> Config:
         raise ConfigError(f"config file {file} must hold a mapping with 'robot' and 'gait'")
     robot = parse_robot(_section(data, "robot", str(file)), f"{file}: robot")
     gait = parse_gait(_section(data, "gait", str(file)), robot.legs, f"{file}: gait")
+    calibration = data["robot"].get("calibration_file")
+    if calibration is not None:  # relative to robot.yaml
+        robot = with_calibration(robot, file.parent / str(calibration))
     return Config(robot=robot, gait=gait, source=str(file))
 
 

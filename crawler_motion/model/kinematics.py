@@ -18,6 +18,7 @@ from typing import TypeVar
 import numpy as np
 
 from crawler_motion.errors import JointLimitError, KinematicsError, UnreachableError
+from crawler_motion.model import calibrated
 from crawler_motion.model.config import JOINT_KINDS, RobotConfig
 
 #: Relative slack on the workspace boundary that is attributed to rounding, not to the target.
@@ -90,6 +91,8 @@ def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True)
     returns NaN, never clips (angles within ``LIMIT_EPS`` of a limit are rounding noise and are
     returned exactly on it). The solution keeps the foot on the leg's side of the root axis
     (r > 0) with the knee sign given by ``robot.knee_sign``; angles are returned in (-pi, pi].
+    With calibrated legs (``robot.calibrated``) the closed-form solution of the nominal leg is
+    refined by Newton steps through each leg's chain to within `calibrated.IK_ACCEPT`.
     """
     p = _as_feet(feet, robot.n_legs, "foot targets")
     q = p - robot.hips
@@ -101,6 +104,8 @@ def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True)
     d_max, d_min = l2 + l3, abs(l2 - l3)
     d = np.sqrt(d2)
     bad = (d > d_max * (1 + REACH_EPS)) | (d < d_min * (1 - REACH_EPS)) | (r < AXIS_EPS)
+    if robot.calibrated:  # the closed form only starts the refinement, which decides
+        bad = r < AXIS_EPS
     if np.any(bad):
         idx = _first(bad)
         leg = idx[-1]
@@ -116,6 +121,8 @@ def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True)
     shoulder = _wrap(np.arctan2(w, u) + np.arctan2(l3 * np.sin(knee), l2 + l3 * np.cos(knee)))
     root = _wrap(np.arctan2(q[..., 1], q[..., 0]) - robot.neutral_yaw)
     angles = np.stack((root, shoulder, knee), axis=-1)
+    if robot.calibrated:
+        angles = _wrap(calibrated.refine(robot, p, angles))
     lower, upper = robot.lower, robot.upper
     angles = np.where((angles < lower) & (angles >= lower - LIMIT_EPS), lower, angles)
     angles = np.where((angles > upper) & (angles <= upper + LIMIT_EPS), upper, angles)
@@ -127,6 +134,8 @@ def inverse_kinematics(robot: RobotConfig, feet: np.ndarray, check: bool = True)
 def forward_kinematics(robot: RobotConfig, angles: np.ndarray) -> np.ndarray:
     """Foot positions ``(..., n_legs, 3)`` [m] in base_link for joint angles [rad]."""
     a = _as_feet(angles, robot.n_legs, "joint angles")
+    if robot.calibrated:
+        return calibrated.forward(robot, a)
     root, shoulder, knee = a[..., 0], a[..., 1], a[..., 2]
     tibia = shoulder - knee
     u = robot.l2 * np.cos(shoulder) + robot.l3 * np.cos(tibia)
@@ -147,6 +156,8 @@ def joint_velocities(robot: RobotConfig, angles: np.ndarray, foot_velocity: np.n
     """
     a = np.asarray(angles, dtype=float)
     v = np.asarray(foot_velocity, dtype=float)
+    if robot.calibrated:
+        return calibrated.rates(robot, a, v)
     root, shoulder, knee = a[..., 0], a[..., 1], a[..., 2]
     yaw = robot.neutral_yaw + root
     tibia = shoulder - knee

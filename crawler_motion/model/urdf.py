@@ -25,6 +25,10 @@ Joint conventions, identical to `crawler_motion.model.kinematics` (and so to the
 - knee: + bends the tibia down relative to the femur. A rotation by +θ about (0, +1, 0) takes
   x to (cos θ, 0, -sin θ), so the tibia's elevation is ``shoulder - knee`` as in the FK.
 
+Calibrated legs (``robot.geometry``, `crawler_motion.model.leg_geometry`): each joint's origin
+and rpy are its frame from `leg_geometry.joint_frames` (hip error, axis tilts and joint zero
+offsets folded in), the foot joint sits at the chain's foot tip; axes stay the ones above.
+
 Knee "down" legs (``knee_sign = -1``) need nothing special here: the knee configuration is
 only the IK's choice of branch, the joint is the same and the same angle means the same pose;
 a knee-down leg simply runs at negative knee angles (the config refuses knee limits that do not
@@ -45,6 +49,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from crawler_motion.model.config import JOINT_KINDS, RobotConfig
+from crawler_motion.model.leg_geometry import JointFrames, joint_frames
 
 #: Density of every solid [kg/m³] (water: an underwater robot is about neutrally buoyant).
 DENSITY = 1000.0
@@ -120,6 +125,22 @@ def _joint(robot_el: ET.Element, name: str, kind: str, parent: str, child: str,
     return joint
 
 
+def _rpy(rotation: np.ndarray) -> tuple[float, float, float]:
+    """URDF roll, pitch, yaw [rad] (R = Rz(yaw) Ry(pitch) Rx(roll)) of a rotation matrix."""
+    pitch = math.asin(max(-1.0, min(1.0, -float(rotation[2, 0]))))
+    return (math.atan2(float(rotation[2, 1]), float(rotation[2, 2])), pitch,
+            math.atan2(float(rotation[1, 0]), float(rotation[0, 0])))
+
+
+def calibrated_frames(robot: RobotConfig, leg: int) -> JointFrames | None:
+    """The joint frames of a calibrated leg (`leg_geometry.joint_frames`), None for a leg
+    with the nominal geometry (whose frames are the exact numbers of robot.yaml)."""
+    geometry = robot.geometry
+    if geometry is None or geometry.nominal_legs[leg]:
+        return None
+    return joint_frames(geometry.params[leg], robot.hips[leg], float(robot.neutral_yaw[leg]))
+
+
 def generate_urdf(robot: RobotConfig) -> str:
     """URDF (XML text) of ``robot``; see the module docstring for frames and conventions."""
     hips = np.asarray(robot.hips, dtype=float)
@@ -151,10 +172,14 @@ def generate_urdf(robot: RobotConfig) -> str:
     lengths = {"coxa": robot.l1, "femur": robot.l2, "tibia": robot.l3}
     for i, leg in enumerate(robot.legs):
         parent = "base_link"
+        frames = calibrated_frames(robot, i)
+        foot_xyz = (robot.l3, 0.0, 0.0) if frames is None else frames.foot_tip
         for j, kind in enumerate(JOINT_KINDS):
             child = f"{leg}_{links[kind]}"
             offset = offsets[kind]
-            if offset is None:  # root joint: at the hip, turned to the leg's neutral direction
+            if frames is not None:  # calibrated leg: its joint frames, zero offsets included
+                xyz, rpy = frames.origins[j], _rpy(frames.rotations[j])
+            elif offset is None:  # root joint: at the hip, turned to the leg's neutral direction
                 xyz, rpy = hips[i], (0.0, 0.0, float(robot.neutral_yaw[i]))
             else:
                 xyz, rpy = (offset, 0.0, 0.0), (0.0, 0.0, 0.0)
@@ -170,7 +195,7 @@ def generate_urdf(robot: RobotConfig) -> str:
         foot_mass = DENSITY * 4 / 3 * math.pi * foot_radius**3
         foot_i = 0.4 * foot_mass * foot_radius**2
         _inertial(foot, foot_mass, (foot_i, foot_i, foot_i), (0.0, 0.0, 0.0))
-        _joint(root, f"{leg}_foot_joint", "fixed", parent, f"{leg}_foot", (robot.l3, 0.0, 0.0))
+        _joint(root, f"{leg}_foot_joint", "fixed", parent, f"{leg}_foot", foot_xyz)
 
     ET.indent(root, space="  ")
     return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"

@@ -11,7 +11,10 @@ and is what the planner's tick runs:
   when the time leaves it), and evaluates position and velocity with the Horner recurrence of
   `trajectory.evaluate_polynomial`;
 - `FastKinematics` is the closed-form IK and the analytic Jacobian inverse of
-  `crawler_motion.model.kinematics`, operation for operation, for all legs;
+  `crawler_motion.model.kinematics`, operation for operation, for all legs; with calibrated
+  legs the closed form starts the Newton refinement of `fastchain.ScalarLeg` (the float form of
+  `crawler_motion.model.calibrated`), warm-started from the last call's correction, whose
+  final Jacobian gives the joint rates at the angles `inverse` returned;
 - `joint_targets` chains them: one call per control tick.
 
 Results equal the numpy path to rounding (tested to 1e-12 over whole walks). Errors are
@@ -35,6 +38,8 @@ import numpy as np
 from crawler_motion.errors import KinematicsError, TrajectoryError
 from crawler_motion.model import kinematics
 from crawler_motion.model.config import RobotConfig
+from crawler_motion.model.leg_geometry import joint_frames
+from crawler_motion.motion.fastchain import ScalarLeg, Solution
 from crawler_motion.motion.trajectory import Piecewise
 
 __all__ = ["DEGREE", "FastKinematics", "Track", "joint_targets"]
@@ -140,10 +145,13 @@ class FastKinematics:
     """`kinematics.inverse_kinematics` and `kinematics.joint_velocities` for one instant.
 
     Same conventions, limits, tolerances and errors as the numpy functions (see the module
-    docstring for how errors are raised).
+    docstring for how errors are raised). With calibrated legs an instance keeps state between
+    calls: each leg's warm start (`fastchain.ScalarLeg`; results depend on the previous call at
+    the rounding level only) and the Jacobian of the angles `inverse` returned last, which
+    `velocities` reuses when given exactly those angles (otherwise it evaluates the chain).
     """
 
-    __slots__ = ("_legs", "_lim", "l1", "l2", "l3", "n_legs", "robot")
+    __slots__ = ("_chains", "_legs", "_lim", "_solved", "l1", "l2", "l3", "n_legs", "robot")
 
     def __init__(self, robot: RobotConfig) -> None:
         self.robot = robot
@@ -160,6 +168,12 @@ class FastKinematics:
         upper = [float(x) for x in np.broadcast_to(robot.upper, (3,))]
         self._lim = (d_max * (1 + eps), d_min * (1 - eps), l2 * l2, l3 * l3, 2 * l2 * l3,
                      tuple(lower), tuple(upper))
+        geometry = robot.geometry if robot.calibrated else None
+        self._chains = None if geometry is None else tuple(
+            ScalarLeg(joint_frames(geometry.params[i], robot.hips[i],
+                                   float(robot.neutral_yaw[i]))) for i in range(self.n_legs))
+        #: per calibrated leg: the angles `inverse` returned last and their `Solution`
+        self._solved: list[tuple[tuple[float, ...], Solution] | None] = [None] * self.n_legs
 
     def _reference_ik(self, feet: Sequence[float], check: bool) -> list[float]:
         arr = np.asarray(feet, dtype=float)
@@ -171,6 +185,7 @@ class FastKinematics:
         """Joint angles (flat, ``3 * n_legs``) [rad] placing the feet at ``feet`` (flat) [m]."""
         if len(feet) != 3 * self.n_legs:
             return self._reference_ik(feet, check)  # raises the shape error
+        chains = self._chains
         d_hi, d_lo, l2sq, l3sq, den, lower, upper = self._lim
         l1, l2, l3 = self.l1, self.l2, self.l3
         out: list[float] = []
@@ -183,7 +198,9 @@ class FastKinematics:
             u = r - l1
             d2 = u * u + w * w
             d = math.sqrt(d2)
-            if not (d_lo <= d <= d_hi and r >= kinematics.AXIS_EPS):  # also NaN / inf
+            # calibrated legs: the closed form only starts the refinement, which decides
+            if not ((chains is not None or d_lo <= d <= d_hi)
+                    and r >= kinematics.AXIS_EPS):  # also NaN / inf
                 return self._reference_ik(feet, check)
             ck = (d2 - l2sq - l3sq) / den
             ck = -1.0 if ck < -1.0 else (1.0 if ck > 1.0 else ck)
@@ -191,7 +208,14 @@ class FastKinematics:
             shoulder = _wrap(math.atan2(w, u) + math.atan2(l3 * math.sin(knee),
                                                            l2 + l3 * math.cos(knee)))
             root = _wrap(math.atan2(qy, qx) - yaw0)
-            for k, angle in enumerate((root, shoulder, knee)):
+            angles = (root, shoulder, knee)
+            if chains is not None:
+                solved = chains[i].solve((feet[j], feet[j + 1], feet[j + 2]), angles, sign)
+                if solved is None:
+                    return self._reference_ik(feet, check)
+                angles = (_wrap(solved[0]), _wrap(solved[1]), _wrap(solved[2]))
+            start = len(out)
+            for k, angle in enumerate(angles):
                 lo, hi = lower[k], upper[k]
                 if angle < lo:
                     if angle >= lo - kinematics.LIMIT_EPS:
@@ -204,6 +228,9 @@ class FastKinematics:
                     elif check:
                         return self._reference_ik(feet, check)
                 out.append(angle)
+            if chains is not None:  # its Jacobian serves `velocities` at exactly these angles
+                kept = tuple(out[start:])
+                self._solved[i] = (kept, solved) if kept == angles else None
         return out
 
     def velocities(self, angles: Sequence[float], foot_velocity: Sequence[float]
@@ -213,6 +240,8 @@ class FastKinematics:
             raise KinematicsError(f"angles and foot velocities must hold {3 * self.n_legs} "
                                   f"values each (flat, leg-major), got {len(angles)} and "
                                   f"{len(foot_velocity)}")
+        if self._chains is not None:
+            return self._calibrated_rates(angles, foot_velocity)
         l1, l2, l3 = self.l1, self.l2, self.l3
         out: list[float] = []
         for i, leg in enumerate(self._legs):
@@ -243,6 +272,23 @@ class FastKinematics:
         (flat) for foot positions [m] and velocities [m/s] (flat)."""
         q = self.inverse(feet)
         return q, self.velocities(q, foot_velocity)
+
+    def _calibrated_rates(self, angles: Sequence[float], foot_velocity: Sequence[float]
+                          ) -> list[float]:
+        assert self._chains is not None
+        out: list[float] = []
+        solved = self._solved
+        for i, chain in enumerate(self._chains):
+            j = 3 * i
+            q = (angles[j], angles[j + 1], angles[j + 2])
+            v = (foot_velocity[j], foot_velocity[j + 1], foot_velocity[j + 2])
+            last = solved[i]
+            rates = (chain.rates_at(last[1], v) if last is not None and last[0] == q
+                     else chain.rates(q, v))
+            if rates is None:
+                return self._reference_rates(angles, foot_velocity)
+            out.extend(rates)
+        return out
 
     def _reference_rates(self, angles: Sequence[float], foot_velocity: Sequence[float]
                          ) -> list[float]:

@@ -36,9 +36,11 @@ from crawler_motion.model.config import Config
 from crawler_motion.motion.gait import WalkParams, standing_pose, validate_params
 from crawler_motion.planner.commands import Command, parse_gait_command
 from crawler_motion.planner.context import JointTarget, PlannerContext
+from crawler_motion.planner.driver_view import DriverChange, DriverReport, DriverView
 from crawler_motion.planner.moves import MEASUREMENT_MAX_AGE, MoveController, sitting_pose
 from crawler_motion.planner.next_slot import AheadJob, AheadPlan
 from crawler_motion.planner.requests import WalkRequests
+from crawler_motion.planner.resume import Resumer
 from crawler_motion.planner.state import (
     ESTOP,
     HOLDING_STATES,
@@ -49,6 +51,7 @@ from crawler_motion.planner.state import (
     WALK_STATES,
     PlannerState,
 )
+from crawler_motion.planner.status_report import planner_status
 from crawler_motion.planner.walk import WalkController
 
 __all__ = ["JointTarget", "PlannerCore"]
@@ -79,6 +82,8 @@ class PlannerCore:
         self.walk = WalkController(cfg, self.ctx)
         self.requests = WalkRequests(cfg, self.ctx, self.walk)
         self.moves = MoveController(cfg, self.ctx, measurement_max_age)
+        self.resumer = Resumer(cfg, self.ctx, self.walk, self.moves)
+        self.driver = DriverView()
         self._stand_height = self.robot.body_height
         self._now = -math.inf
         self._last_tick = -math.inf
@@ -111,8 +116,18 @@ class PlannerCore:
         self.moves.set_measured(positions, now)
 
     def set_paused(self, paused: bool, now: float, reason: str = "") -> None:
-        """Pause (motor-manager fault) or resume; see the module docstring."""
-        self.ctx.set_paused(paused, now, reason)
+        """Pause (motor-manager fault) or resume; see the module docstring. A pause of a
+        move or a held pose interrupts it (`resume.Resumer`); a walk runs to its slot end."""
+        self.resumer.set_paused(paused, now, reason)
+
+    def on_driver(self, report: DriverReport, now: float) -> None:
+        """A ``driver_status`` report: a driver that stopped following (e-stop, watchdog,
+        deactivated, disabled) ends the motion into IDLE; a new enable epoch interrupts it, so
+        it resumes from the measured pose."""
+        change = self.driver.update(report)
+        if change in (DriverChange.ENDED, DriverChange.RESTARTED):
+            self._clear_motion()
+        self.resumer.on_driver(self.driver, change, self._clock(now))
 
     def submit(self, text: str, now: float) -> Command:
         """Parse and execute one ``gait_command`` JSON text; refusals raise `CommandError`."""
@@ -130,6 +145,7 @@ class PlannerCore:
     def command(self, cmd: Command, now: float) -> None:
         """Execute a parsed command at ``now``; refusals raise `CommandError`."""
         now = self._clock(now)
+        self.resumer.admit(cmd.kind, self.driver, now)
         if cmd.kind == "estop":
             self.estop(now)
         elif cmd.kind == "reset":
@@ -175,8 +191,11 @@ class PlannerCore:
         now = self._clock(now)
         if now - self._last_tick > 1.5 / self.rate_hz and self._last_tick > -math.inf:
             self._late_ticks += 1
+        self.resumer.before_tick(self._last_tick, now, self.rate_hz)
         self._last_tick = now
         state = self.ctx.state
+        if self.resumer.active:
+            return self.resumer.tick(now)
         if state in HOLDING_STATES:
             return self.ctx.hold
         if state in WALK_STATES:
@@ -218,28 +237,9 @@ class PlannerCore:
         return self.walk.store_ahead(ahead)
 
     def status(self) -> dict[str, Any]:
-        """State, gait, profile, step k of N (k full gait cycles done), pause, last refusal."""
-        ctx, walk, journal = self.ctx, self.walk, self.ctx.journal
-        params = walk.params if walk.params is not None else self.defaults
-        return {
-            "state": ctx.state,
-            "target": self.moves.target if ctx.state == MOVING else None,
-            "gait": params.gait,
-            "profile": params.profile,
-            "step": walk.steady_done // walk.groups,
-            "steps": walk.steps_total,
-            "source": walk.source,
-            "phase": walk.seq.phase if walk.seq is not None else None,
-            "paused": ctx.paused,
-            "pause_reason": ctx.pause_reason or None,
-            "body_height": self._stand_height,
-            "last_refusal": journal.last_refusal,
-            "refusals": journal.refusals,
-            "last_event": journal.last_event,
-            "late_ticks": self._late_ticks,
-            "revision": journal.revision,
-            "stamp": journal.stamp,
-        }
+        """State, gait, profile, step k of N, pause, resume, driver, last refusal
+        (`status_report.planner_status`)."""
+        return planner_status(self, self._late_ticks, self._stand_height)
 
     @property
     def state(self) -> PlannerState:
@@ -287,6 +287,7 @@ class PlannerCore:
     def _clear_motion(self) -> None:
         self.moves.clear()
         self.walk.clear()
+        self.resumer.clear()
 
     def _stop(self, now: float) -> None:
         if self.ctx.state == MOVING:

@@ -133,6 +133,26 @@ class MoveController:
         self._measured = q
         self._measured_at = float(now)
 
+    def fresh_measured(self, now: float, since: float = -math.inf) -> np.ndarray | None:
+        """The measured pose ``(n_legs, 3)`` [rad] if at most ``measurement_max_age`` old at
+        ``now`` [s] and taken after ``since`` [s], else None."""
+        if (self._measured is None or now - self._measured_at > self.measurement_max_age
+                or self._measured_at <= since):
+            return None
+        return self._measured.copy()
+
+    def resume(self, now: float, measured: np.ndarray, final: np.ndarray,
+               end_state: PlannerState, what: str) -> JointMove:
+        """Start a move from ``measured`` to ``final`` [rad] at ``now`` [s] regardless of the
+        state (a resume after an interruption); it ends in ``end_state``."""
+        move = JointMove(self.cfg, measured, np.reshape(final, (-1, 3)), now, end_state, what)
+        self.move = move
+        self._target = what
+        self.ctx.enter(MOVING, now)
+        self.ctx.journal.event("info", f"{what}: {move.duration:.2f} s joint move from the "
+                                       f"measured pose")
+        return move
+
     def _refusal(self, now: float, what: str) -> str | None:
         """Why a ``what`` move cannot start at ``now`` [s], or None."""
         ctx = self.ctx

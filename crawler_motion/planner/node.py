@@ -4,7 +4,9 @@ Subscribes ``cmd_vel`` (geometry_msgs/Twist; linear.x, linear.y, angular.z used)
 ``gait_command`` (std_msgs/String, one JSON object, see `commands.parse_gait_command`),
 ``joint_states`` (sensor_msgs/JointState, measured) and ``/diagnostics``
 (diagnostic_msgs/DiagnosticArray: a status whose hardware_id is ``fault_hardware_id`` at level
-ERROR pauses the planner until every such status is OK or WARN again; STALE changes nothing).
+ERROR pauses the planner until every such status is OK or WARN again; STALE changes nothing)
+and ``driver_status`` (std_msgs/String JSON, transient local: the driver's gate state ends a
+walk, a new enable epoch resumes it from the measured pose; see `planner.driver_view`).
 Publishes ``joint_commands`` (sensor_msgs/JointState: 12 joints, position + velocity, stamped)
 at ``rate`` Hz (nothing in IDLE and ESTOP), and ``planner_status`` (std_msgs/String JSON,
 transient local) on every change and at least once a second.
@@ -17,40 +19,40 @@ so no tick waits for planning. Ticks skipped because the process was starved are
 (``missed_ticks`` in the status; a message is logged).
 
 The parameters are the `ParamSpec`s of `planner.parameters`, validated by
-`planner_settings` at start-up and on every change (refused with the reason). ``config_file``
-and ``tick_priority`` are read-only; a new ``rate`` changes the period of the ticker; new gait
-defaults apply to the next walk or stand, not to a walk in progress. All callbacks share the
-node's default (mutually exclusive) callback group and a lock around the core, so the node is
-also safe under a MultiThreadedExecutor and with `set_parameters` called from another thread.
-Spin it single-threaded (as `main` does).
+`planner_settings` at start-up and on every change (refused with the reason). ``config_file``,
+``calibration_file`` (the legs' geometry for IK and FK) and ``tick_priority`` are read-only;
+a new ``rate`` changes the period of the ticker; new gait defaults apply to the next walk or
+stand, not to a walk in progress. All callbacks share the node's default (mutually exclusive)
+callback group and a lock around the core, so the node is also safe under a
+MultiThreadedExecutor and with `set_parameters` called from another thread. Spin it
+single-threaded (as `main` does).
 """
 
 from __future__ import annotations
 
 import json
-import sys
 import threading
 import time
 from typing import Any
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Twist
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
-from crawler_motion.errors import CommandError, CrawlerMotionError
+from crawler_motion.errors import CommandError
+from crawler_motion.model.calibration_file import config_with_calibration
 from crawler_motion.model.config import Config, config_path, load_config
 from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.planner.core import PlannerCore
+from crawler_motion.planner.driver_view import parse_driver_status, rate_problem
 from crawler_motion.planner.parameters import (
+    CALIBRATION_SPEC,
     PlannerSettings,
     config_file_spec,
     planner_parameters,
@@ -59,6 +61,7 @@ from crawler_motion.planner.parameters import (
 from crawler_motion.planner.planning_thread import AheadPlanner
 from crawler_motion.runtime.log import Severity, log
 from crawler_motion.runtime.parameters import ParamSpec
+from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 from crawler_motion.runtime.ticker import Ticker, set_process_priority
 
@@ -66,6 +69,11 @@ from crawler_motion.runtime.ticker import Ticker, set_process_priority
 GIL_SWITCH_INTERVAL = 0.0005
 #: Period of the unconditional status publication [s].
 STATUS_PERIOD = 1.0
+#: A status change that only counts refusals is published at most once per this long [s]
+#: (a flood of bad commands must not become a flood of statuses); others go out at once.
+STATUS_MIN_INTERVAL = 0.1
+#: Status keys whose change is published at once.
+STATUS_URGENT_KEYS = ("state", "paused", "step", "phase", "resuming", "driver", "target")
 #: Identical warnings are logged at most once per this many seconds.
 LOG_REPEAT_PERIOD = 2.0
 #: Distinct messages remembered for `LOG_REPEAT_PERIOD` (the memory is cleared beyond).
@@ -148,6 +156,8 @@ class PlannerNode(Node):
         self._faults = FaultLevels()
         self._repeats = RepeatFilter(LOG_REPEAT_PERIOD)
         self._status_revision = -1
+        self._status_key: tuple[Any, ...] = ()
+        self._status_at = -float("inf")
         self._missed_logged = 0
         self._joint_names = list(self.cfg.robot.joint_names)
         self._msg = JointState()
@@ -174,12 +184,15 @@ class PlannerNode(Node):
 
     # ----------------------------------------------------------------- set-up
     def _declare_parameters(self) -> tuple[Config, tuple[ParamSpec, ...]]:
-        """Declare ``config_file``, load it, then declare the parameters it bounds."""
+        """Declare ``config_file`` and ``calibration_file``, load them, then declare the
+        parameters they bound."""
         spec = config_file_spec(str(config_path("robot.yaml")))
         config_file = self.declare_parameter(spec.name, spec.default, descriptor(spec)).value
-        cfg = load_config(config_file)
+        calibration = self.declare_parameter(CALIBRATION_SPEC.name, CALIBRATION_SPEC.default,
+                                             descriptor(CALIBRATION_SPEC)).value
+        cfg = config_with_calibration(load_config(config_file), calibration)
         specs = planner_parameters(cfg, config_file)
-        for spec in specs[1:]:
+        for spec in specs[2:]:
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
         return cfg, specs
 
@@ -193,6 +206,7 @@ class PlannerNode(Node):
         self.create_subscription(JointState, "joint_states", self._on_joint_states,
                                  qos_profile_sensor_data)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
+        self.create_subscription(String, "driver_status", self._on_driver_status, status_qos)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._status_timer = self.create_timer(STATUS_PERIOD, self._publish_status,
                                                clock=steady)
@@ -214,7 +228,10 @@ class PlannerNode(Node):
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         try:
-            planner_settings(self._specs, self._parameter_values(params), self.cfg)
+            settings = planner_settings(self._specs, self._parameter_values(params), self.cfg)
+            problem = rate_problem(settings.rate, self.core.driver.report)
+            if problem:
+                raise CommandError(problem)
         except CommandError as exc:
             reason = f"parameters refused: {exc}"
             with self._lock:
@@ -265,6 +282,20 @@ class PlannerNode(Node):
         with self._lock:
             self.core.set_measured(q, time.monotonic())
 
+    def _on_driver_status(self, msg: String) -> None:
+        try:
+            report = parse_driver_status(msg.data)
+        except CommandError as exc:
+            self._log(Severity.WARNING, f"driver_status ignored: {exc}")
+            return
+        with self._lock:
+            self.core.on_driver(report, time.monotonic())
+            problem = rate_problem(self._settings.rate, report)
+        if problem:
+            self._log(Severity.ERROR, f"{problem} (set the planner's rate or the driver's "
+                                      f"command_timeout)")
+        self._after_core_call()
+
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         with self._lock:
             faulted, reason = self._faults.update(msg.status, self._settings.fault_hardware_id)
@@ -307,12 +338,20 @@ class PlannerNode(Node):
         for level, message in events:
             self._log(_severity(level), message)
         if changed:
-            self._publish_status()
+            self._publish_status(urgent_only=True)
 
-    def _publish_status(self) -> None:
+    def _publish_status(self, urgent_only: bool = False) -> None:
+        """Publish the status; with ``urgent_only`` only if a `STATUS_URGENT_KEYS` value
+        changed or `STATUS_MIN_INTERVAL` passed (the ticker publishes a held-back change)."""
+        now = time.monotonic()
         with self._lock:
             status = self.core.status()
+            key = tuple(status[k] for k in STATUS_URGENT_KEYS)
+            if urgent_only and key == self._status_key and (
+                    now - self._status_at < STATUS_MIN_INTERVAL):
+                return
             self._status_revision = status["revision"]
+            self._status_key, self._status_at = key, now
         status["missed_ticks"] = self._ticker.missed
         status["time"] = self.get_clock().now().nanoseconds * 1e-9
         self._pub_status.publish(String(data=json.dumps(status)))
@@ -326,21 +365,8 @@ class PlannerNode(Node):
 def main(args: list[str] | None = None) -> None:
     """Console script ``planner_node``: spin the planner until Ctrl-C or shutdown."""
     # the ticker thread waits for the GIL at most this long when another thread holds it
-    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = PlannerNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (CrawlerMotionError, ParameterException) as exc:
-        rclpy.logging.get_logger("planner").fatal(f"planner cannot start: {exc}")
-        raise SystemExit(1) from None
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(PlannerNode, "planner_node: error: planner cannot start", args,
+             switch_interval=GIL_SWITCH_INTERVAL)
 
 
 if __name__ == "__main__":

@@ -19,6 +19,12 @@ from crawler_motion.runtime.parameters import ParamSpec, validate_parameters
 
 #: Name of the read-only parameter naming the robot.yaml (declared before the others).
 CONFIG_FILE = "config_file"
+#: Name of the read-only parameter naming the leg calibration file (declared second).
+CALIBRATION_FILE = "calibration_file"
+#: The ``calibration_file`` parameter: the planner's per-leg geometry.
+CALIBRATION_SPEC = ParamSpec(CALIBRATION_FILE, "", "leg calibration YAML (per-leg geometry, "
+                             "crawler-motion calibrate identify); empty: robot.yaml's "
+                             "robot.calibration_file, else the nominal legs", read_only=True)
 #: Range of the ``tick_priority`` parameter (0: normal scheduling; else SCHED_FIFO).
 TICK_PRIORITY_RANGE = (0, 99)
 
@@ -76,9 +82,10 @@ def _walk_spec(option: WalkOption, cfg: Config) -> ParamSpec:
 
 
 def planner_parameters(cfg: Config, config_file: str) -> tuple[ParamSpec, ...]:
-    """Every parameter of the planner node, ``config_file`` first, for the loaded ``cfg``."""
+    """Every parameter of the planner node, ``config_file`` and ``calibration_file`` first,
+    for the loaded ``cfg``."""
     walk = tuple(_walk_spec(option, cfg) for option in WALK_OPTIONS if option.parameter)
-    return (config_file_spec(config_file), *NODE_PARAMETERS, *walk)
+    return (config_file_spec(config_file), CALIBRATION_SPEC, *NODE_PARAMETERS, *walk)
 
 
 def default_values(specs: Sequence[ParamSpec]) -> dict[str, Any]:

@@ -40,6 +40,7 @@ class WalkController:
         self.groups = 1  # groups of the gait of the current / last walk
         self.source: str | None = None
         self.waiting = False
+        self.frozen_at: float | None = None  # steady time [s] a walk froze mid-slot
         self.last_twist = -math.inf
         self.ahead: AheadPlan | None = None
 
@@ -53,7 +54,28 @@ class WalkController:
         self.pending_steps = None
         self.stop_requested = False
         self.waiting = False
+        self.frozen_at = None
         self.ahead = None
+
+    def freeze(self, at: float) -> None:
+        """Hold the last target from steady time ``at`` [s] until `thaw` (the clock stops)."""
+        ctx = self.ctx
+        if self.waiting:
+            return  # already holding at a slot boundary
+        last = ctx.last_target if ctx.last_target is not None else ctx.hold
+        if last is not None:
+            ctx.hold = ctx.hold_pose(last.positions)
+        self.waiting = True
+        self.frozen_at = float(at)
+
+    def thaw(self, now: float) -> bool:
+        """Continue a frozen or held walk at ``now`` [s]; False if no slot follows."""
+        self.waiting = False
+        if self.frozen_at is not None:
+            self.slot_t0 += now - self.frozen_at
+            self.frozen_at = None
+            return True
+        return self._plan_slot(now)
 
     def start(self, params: WalkParams, steps: int | None, source: str, now: float) -> None:
         """Start walking from STANDING at ``now`` [s]; refusals raise `CommandError`."""
@@ -209,12 +231,8 @@ class WalkController:
                 and now - self.last_twist > cmd_vel_timeout):
             self.request_stop(now, f"cmd_vel timeout ({cmd_vel_timeout:g} s without a "
                                    f"twist): stopping into standing")
-        if self.waiting:
-            if ctx.paused:
-                return ctx.hold
-            self.waiting = False
-            if not self._plan_slot(now):
-                return ctx.hold
+        if self.waiting:  # the planner core resumes it from the measured pose (`thaw`)
+            return ctx.hold
         if not self._boundaries(now):
             return ctx.hold
         assert self.track is not None

@@ -12,8 +12,8 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-#: A parameter value as ROS carries it.
-Value = bool | int | float | str
+#: A parameter value as ROS carries it (a tuple: an array of floats).
+Value = bool | int | float | str | tuple[float, ...]
 #: An extra rule of one parameter: the reason a value is refused, or None.
 Check = Callable[[Any], str | None]
 
@@ -52,6 +52,9 @@ def _type_reason(spec: ParamSpec, value: Any) -> str | None:
     kind = spec.kind
     if kind is float:
         ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    elif kind is tuple:
+        ok = isinstance(value, (list, tuple)) and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
     else:
         ok = type(value) is kind
     return None if ok else f"{spec.name} must be a {kind.__name__}, got {value!r}"
@@ -64,6 +67,9 @@ def _rule_reason(spec: ParamSpec, value: Any) -> str | None:
         return None
     if isinstance(value, bool):
         return None
+    if isinstance(value, (list, tuple)):
+        finite = all(math.isfinite(v) for v in value)
+        return None if finite else f"{spec.name} must be finite numbers, got {list(value)!r}"
     if not math.isfinite(value):
         return f"{spec.name} must be finite, got {value!r}"
     if spec.minimum is not None and spec.maximum is not None and not (

@@ -1,1 +1,1 @@
-"""Simulated hardware on the CAN bus: the motor manager."""
+"""Simulated hardware on the CAN bus: the joint-only motor manager and the seabed physics."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Mapping
+from typing import Protocol
 
 import numpy as np
 
@@ -14,15 +15,32 @@ from crawler_motion.sim.manager_state import ManagerState, ManagerStateMachine
 log = logging.getLogger(__name__)
 
 
+class Plant(Protocol):
+    """What moves the axes instead of the speed limit: e.g. a physics simulation."""
+
+    #: Why the plant stopped (e.g. the simulation went unstable); None while it runs.
+    failure: str | None
+
+    def advance(self, dt: float, targets: np.ndarray) -> np.ndarray:
+        """Drive the axes towards ``targets`` (axis order [rad]) for ``dt`` [s]; returns the
+        measured axis positions [rad]."""
+        ...
+
+
 class ManagerModel:
     """Axis positions and targets in axis order [rad] under a `ManagerStateMachine`.
 
     Every axis moves towards its target at ``speed`` [rad/s] while the manager is enabled and
     the command timeout [s] has not expired; ``time`` is the simulated time [s].
+
+    With a ``plant`` the axes' motion comes from it instead: its servos always track
+    ``target`` (a manager that holds, is disabled or stopped keeps them holding where it held
+    them) and ``pos`` is what the plant measures; stalls do not apply. When the plant fails, an
+    enabled manager holds.
     """
 
     def __init__(self, positions: np.ndarray, speed: np.ndarray,
-                 command_timeout: float) -> None:
+                 command_timeout: float, plant: Plant | None = None) -> None:
         self.pos = np.array(positions, dtype=float)
         self.target = self.pos.copy()
         self.speed = speed
@@ -30,6 +48,7 @@ class ManagerModel:
         self.machine = ManagerStateMachine(self.pos.size)
         self.time = 0.0
         self._last_target_time = 0.0
+        self.plant = plant
 
     @property
     def state(self) -> ManagerState:
@@ -72,10 +91,18 @@ class ManagerModel:
                                       self.command_timeout):
             self.hold()
             log.debug("command timeout at t=%.3f s: holding", self.time)
-        if self.machine.following:
+        if self.plant is not None:
+            self._advance_plant(dt)
+        elif self.machine.following:
             step = np.clip(self.target - self.pos, -self.speed * dt, self.speed * dt)
             step[list(self.machine.stalled)] = 0.0
             self.pos += step
+
+    def _advance_plant(self, dt: float) -> None:
+        self.pos = np.array(self.plant.advance(dt, self.target.copy()), dtype=float)
+        if self.plant.failure is not None and self.machine.state == ManagerState.ENABLED:
+            self.command(ManagerState.HOLD.value)
+            log.error("plant failed at t=%.3f s: holding (%s)", self.time, self.plant.failure)
 
     def flags(self) -> list[AxisFlags]:
         """The status bits of every axis, in axis order."""

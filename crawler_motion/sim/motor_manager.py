@@ -37,7 +37,7 @@ import numpy as np
 from crawler_motion.canbus.protocol import ControlFrame, MotorProtocol, TargetFrame
 from crawler_motion.errors import ProtocolError
 from crawler_motion.sim.manager_loop import PeriodicSchedule, StepLoop
-from crawler_motion.sim.manager_model import ManagerModel
+from crawler_motion.sim.manager_model import ManagerModel, Plant
 from crawler_motion.sim.manager_state import ManagerState
 
 log = logging.getLogger(__name__)
@@ -105,15 +105,15 @@ class MotorManagerSim:
     """The simulated manager on ``bus``; positions are axis positions in axis order [rad].
 
     ``initial_positions`` are joint angles in joint order [rad] (default: all zero, which is not
-    the standing pose); ``speed_limit`` is one value or one per axis [rad/s]; ``rate`` [Hz] and
-    ``heartbeat_period`` [s] default to the DBC's cycle times.
+    the standing pose); ``speed_limit`` is one value or one per axis [rad/s] (a `Plant` moves
+    the axes instead, when given); ``rate`` [Hz], ``heartbeat_period`` [s]: the DBC's default.
     """
 
     def __init__(self, bus: can.BusABC, protocol: MotorProtocol, *,
                  speed_limit: float | Sequence[float] = DEFAULT_SPEED_LIMIT,
                  rate: float | None = None, heartbeat_period: float | None = None,
                  command_timeout: float = DEFAULT_COMMAND_TIMEOUT,
-                 initial_positions: Sequence[float] | None = None,
+                 initial_positions: Sequence[float] | None = None, plant: Plant | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
         missing = [s.value for s in ManagerState if s.value not in protocol.states]
         if missing:
@@ -126,7 +126,7 @@ class MotorManagerSim:
         timeout = _positive(command_timeout, "command_timeout [s]")
         pos = protocol.to_axis(np.zeros(n) if initial_positions is None else initial_positions)
         protocol.encode_feedback(pos, 0)  # refuses an initial pose it could not report
-        self._model = ManagerModel(pos, speed, timeout)
+        self._model = ManagerModel(pos, speed, timeout, plant)
         self._silent = False
         self._last_counter: dict[int, int] = {}
         self._feedback_counter = 0

@@ -17,9 +17,11 @@ from crawler_motion.testing.bus import BusSpec
 #: Console scripts of the stack and the modules behind them.
 EXECUTABLES = {"motor_manager_sim": "crawler_motion.sim.manager_cli",
                "driver_node": "crawler_motion.driver.node",
-               "planner_node": "crawler_motion.planner.node"}
+               "planner_node": "crawler_motion.planner.node",
+               "seabed_sim": "crawler_motion.sim.seabed.node"}
 #: Short process names (log files ``<name>.log``) of the benches and tests.
-SHORT_NAMES = {"motor_manager_sim": "sim", "driver_node": "driver", "planner_node": "planner"}
+SHORT_NAMES = {"motor_manager_sim": "sim", "driver_node": "driver", "planner_node": "planner",
+               "seabed_sim": "seabed"}
 #: Driver watchdog of the demo and benches [s]. The driver's default (0.2 s) is meant for a
 #: dedicated controller; on a shared laptop or CI machine a starved planner process can miss it,
 #: and a tripped watchdog (correctly) needs an explicit re-enable, which would end the run.
@@ -68,7 +70,8 @@ class StackSpec:
     """What to launch: the manager (unless ``sim`` is False: it runs elsewhere), the driver
     (activated, watchdog ``command_timeout`` [s]) and the planner (``rate`` [Hz]; none when
     ``planner`` is None) on ``bus``; ``driver`` / ``planner`` hold extra parameters, ``remaps``
-    ROS remappings of both nodes, ``names`` the process names by executable."""
+    ROS remappings of both nodes, ``names`` the process names by executable. With ``seabed``
+    (its parameters) the manager is ``seabed_sim``, the physical one, instead."""
 
     bus: BusSpec
     rate: float = 100.0
@@ -79,11 +82,15 @@ class StackSpec:
     sim: bool = True
     remaps: tuple[str, ...] = ()
     names: Mapping[str, str] = field(default_factory=lambda: dict(SHORT_NAMES))
+    seabed: dict[str, Any] | None = None
 
     def commands(self) -> dict[str, list[str]]:
         """Process name -> command line, in start order."""
         out = {}
-        if self.sim:
+        if self.sim and self.seabed is not None:
+            out[self.names["seabed_sim"]] = [*node_command("seabed_sim"), *ros_args(
+                {**self.bus.ros_params(), **self.seabed}, self.remaps)]
+        elif self.sim:
             out[self.names["motor_manager_sim"]] = [
                 *node_command("motor_manager_sim"), *self.bus.cli_args(),
                 "--speed-limit", str(float(self.speed_limit))]

@@ -20,6 +20,8 @@ Rows:
 - `PlannerCore.tick` while walking at 100 Hz as the node runs it (the next slot planned by
   `PlannerCore.plan_ahead` between ticks), the same without planning ahead (its p99 is the
   slot boundaries, where the tick plans and checks the next slot), and `plan_ahead` itself;
+  the same tick with every leg calibrated (synthetic assembly errors: the IK refines the
+  closed form with Newton steps, `motion.fastchain`);
 - CAN bus load at 1 Mbit/s: command (target frames) at 100, 200 and 500 Hz and feedback
   (positions, status, heartbeat) at the simulated manager's default rates, with worst-case
   bit stuffing (`canbus.busload.frame_bits_worst_case`).
@@ -265,6 +267,18 @@ def planner_rows(cfg: Config, scale: float) -> list[Row]:
     return rows
 
 
+def calibrated_rows(cfg: Config, scale: float) -> list[Row]:
+    """The planner tick (planned ahead) with every leg calibrated: synthetic assembly errors
+    (`calibration.synthetic.perturbed_robot`, seed 1)."""
+    from dataclasses import replace
+
+    from crawler_motion.calibration.synthetic import perturbed_robot
+
+    row = planner_rows(replace(cfg, robot=perturbed_robot(cfg.robot, 1)), scale)[0]
+    return [Row("planner tick, calibrated legs (Newton-refined IK, synthetic errors)",
+                row.calls, row.median, row.p99, row.note)]
+
+
 def bus_rows(cfg: Config) -> list[tuple[str, float, float, int, float]]:
     """(what, rate Hz, frames/s, worst-case bits per cycle, bus load %) rows."""
     from crawler_motion.canbus.busload import frame_bits_worst_case
@@ -367,6 +381,7 @@ def main(argv: list[str] | None = None) -> int:
     overhead = timer_overhead()
     rows = timing_rows(cfg, scale)
     rows.extend(planner_rows(cfg, scale))
+    rows.extend(calibrated_rows(cfg, scale))
     print_timing(rows, overhead)
     print_targets(rows)
     print_bus(bus_rows(cfg))

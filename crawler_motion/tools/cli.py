@@ -1,4 +1,4 @@
-"""The ``crawler-motion`` command line: trajectories, walks, URDF, plots (and the ROS tools).
+"""The ``crawler-motion`` command line: trajectories, walks, URDF, plots, evaluation, tools.
 
 Every failure is one line on stderr and a non-zero exit status, never a traceback.
 """
@@ -22,6 +22,7 @@ from crawler_motion.motion.trajectory import Piecewise, SwingShape, step_cycle
 from crawler_motion.motion.walk_options import OPTIONS, WALK_OPTIONS
 from crawler_motion.runtime.cli_args import OneLineParser, finite_number
 from crawler_motion.tools.args import add_walk_options, check_choice, option_type
+from crawler_motion.tools.evaluate import DEFAULT_STEPS, add_evaluate_options, cmd_evaluate
 
 PROG = "crawler-motion"
 TRAJECTORY_HEADER = ("t,phase,x,y,z,vx,vy,vz,ax,ay,az,q_root,q_shoulder,q_knee").split(",")
@@ -73,11 +74,15 @@ def cmd_trajectory(args: argparse.Namespace, cfg: Config) -> int:
     return 0
 
 
+def walk_params(args: argparse.Namespace, cfg: Config) -> WalkParams:
+    """The walk set by the walk options of ``args`` (the config's defaults for the others)."""
+    return WalkParams.defaults(cfg.gait, **{
+        name: getattr(args, name) for name in WALK_FIELDS if getattr(args, name) is not None})
+
+
 def cmd_walk(args: argparse.Namespace, cfg: Config) -> int:
     """Plan a walk and print joint angles and foot positions over time as CSV."""
-    params = WalkParams.defaults(cfg.gait, **{
-        name: getattr(args, name) for name in WALK_FIELDS if getattr(args, name) is not None})
-    plan = plan_walk(cfg, params, args.steps)
+    plan = plan_walk(cfg, walk_params(args, cfg), args.steps)
     t = sample_times(plan.duration, args.rate)
     pos, _, _ = plan.evaluate(t)
     q = inverse_kinematics(cfg.robot, pos)
@@ -121,6 +126,14 @@ def _add_common_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", default=None, help="robot YAML (default: the shipped one)")
 
 
+def _add_walk_command(p: argparse.ArgumentParser, steps_default: int) -> None:
+    """``--steps`` and every walk option of ``walk`` (all from the one option table)."""
+    steps = OPTIONS["steps"]
+    p.add_argument(steps.flag, type=option_type(steps), default=steps_default,
+                   help=f"{steps.help} (default {steps_default})")
+    add_walk_options(p, WALK_FIELDS, " (default from config)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``crawler-motion``."""
     parser = OneLineParser(prog=PROG, description="Motion controller of a four-legged crawler.")
@@ -131,12 +144,15 @@ def build_parser() -> argparse.ArgumentParser:
     _add_common_options(p)
     p.set_defaults(func=cmd_trajectory)
     p = sub.add_parser("walk", help="a whole walk (half steps in and out) as CSV")
-    steps = OPTIONS["steps"]
-    p.add_argument(steps.flag, type=option_type(steps), default=2,
-                   help=f"{steps.help} (default 2)")
-    add_walk_options(p, WALK_FIELDS, " (default from config)")
+    _add_walk_command(p, 2)
     _add_common_options(p)
     p.set_defaults(func=cmd_walk)
+    p = sub.add_parser("evaluate", help="a walk replayed through the seabed physics: figures "
+                       "per gait cycle (timing on stderr)")
+    _add_walk_command(p, DEFAULT_STEPS)
+    add_evaluate_options(p)
+    p.add_argument("--config", default=None, help="robot YAML (default: the shipped one)")
+    p.set_defaults(func=lambda args, cfg: cmd_evaluate(args, cfg, walk_params(args, cfg)))
     p = sub.add_parser("urdf", help="the URDF generated from the robot config")
     p.add_argument("--output", "-o", default=None, help="file to write (default: stdout)")
     p.add_argument("--config", default=None, help="robot YAML (default: the shipped one)")
@@ -163,6 +179,11 @@ _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
      "optimise the smooth profile (needs the [tune] extra)"),
     ("param-docs", "crawler_motion.tools.param_docs",
      "write docs/parameters.md from the nodes' parameter declarations"),
+    ("calibrate", "crawler_motion.tools.calibrate",
+     "leg calibration: excitation poses, identification, simulated tracker"),
+    ("fk", "crawler_motion.tools.fk", "forward kinematics of one leg: CSV joints in, feet out"),
+    ("map-plot", "crawler_motion.tools.map_plot",
+     "walk around obstacles in the simulator: elevation map, path and heading plots"),
 )
 
 

@@ -53,8 +53,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--wz", type=finite_number("wz"), default=0.0, help="yaw rate [rad/s]")
     p.add_argument("--duration", type=finite_number("duration", positive=True), default=3.0)
     p.add_argument("--rate", type=finite_number("rate", positive=True), default=20.0)
-    p = sub.add_parser("status", help="print status changes for a while")
+    sub.add_parser("recover", help="after an e-stop or a watchdog trip: reset the planner, "
+                   "reset and enable the driver as needed, so that stand works")
+    p = sub.add_parser("status", help="print status changes (planner and driver) for a while")
     p.add_argument("--duration", type=finite_number("duration", positive=True), default=5.0)
+    p = sub.add_parser("goto", help="send the navigator a goal and follow it to its end")
+    p.add_argument("x", type=finite_number("x"), help="goal x [m]")
+    p.add_argument("y", type=finite_number("y"), help="goal y [m]")
+    p.add_argument("--frame", default="odom", help="frame of the goal (default odom)")
+    sub.add_parser("cancel", help="cancel the navigator's goal (the robot stands)")
     p = sub.add_parser("send", help="send one raw JSON gait command")
     p.add_argument("json", help="the JSON object, e.g. '{\"command\": \"stand\"}'")
     return parser
@@ -222,6 +229,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
     else:
         command = command_from_args(args)
+    if args.action in ("goto", "cancel"):
+        from crawler_motion.tools.goto import run
+
+        return run(args.action, getattr(args, "x", 0.0), getattr(args, "y", 0.0),
+                   getattr(args, "frame", "odom"), args.timeout, args.quiet)
     import rclpy
 
     rclpy.init()
@@ -234,9 +246,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{PROG}: error: no planner answering on planner_status/gait_command",
                   file=sys.stderr)
             return 1
-        if args.action == "status":
-            console.spin_for(args.duration)
-            return 0
+        if args.action in ("status", "recover"):
+            from crawler_motion.tools.recover import run_driver_action
+
+            return run_driver_action(console, args.action, args, PROG)
         if args.action == "twist":
             period = 1.0 / args.rate
             end = time.monotonic() + args.duration

@@ -1,9 +1,13 @@
 """``crawler-motion demo``: the whole stack on a cross-process virtual CAN bus, walking.
 
-Starts the simulated motor manager, the driver (activated) and the planner as separate
-processes on a python-can ``udp_multicast`` bus (``--interface socketcan --channel vcan0`` for
-a real virtual CAN), stands up from the measured pose, walks, stops standing, and prints a
-summary: frames on the bus, largest tracking error, final foot error. Exit 0 on success.
+Starts the seabed simulator (the physical motor manager: a MuJoCo robot in water on the flat
+world), the driver (activated) and the planner as separate processes on a python-can
+``udp_multicast`` bus (``--interface socketcan --channel vcan0`` for a real virtual CAN), stands
+up from the measured pose, walks, stops standing, and prints a summary: frames on the bus,
+largest tracking error, final foot error and the body's advance measured by ``odom`` against
+the plan's no-slip advance; the simulator writes a PNG and a GIF of the walk (``--out``).
+``--sim joint`` runs the joint-only ``motor_manager_sim`` instead (no body, no pictures).
+Exit 0 on success.
 """
 
 from __future__ import annotations
@@ -34,6 +38,13 @@ PROG = "crawler-motion demo"
 DEMO_COMMAND_TIMEOUT = STACK_COMMAND_TIMEOUT
 #: Planner states in which the tracking error is recorded.
 MOVING = ("WALKING", "STOPPING")
+#: ``--sim`` choices: the seabed physics, or the joint-only simulated manager.
+SIMS = ("seabed", "joint")
+#: File prefix of the pictures in ``--out``; states kept per second for them [Hz].
+PICTURES = "demo_walk"
+RECORD_FPS = 10.0
+#: Time the simulator gets to render its pictures after the run [s].
+PICTURE_TIMEOUT = 90.0
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -45,6 +56,13 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--interface", default="udp_multicast")
     parser.add_argument("--channel", default=None, help="bus channel (default per interface)")
     parser.add_argument("--timeout", type=float, default=60.0, help="give up after [s]")
+    parser.add_argument("--sim", choices=SIMS, default="seabed",
+                        help="seabed: physics in water (default); joint: joint-only manager")
+    parser.add_argument("--world", default="flat", help="seabed world: a shipped name or an "
+                        "MJCF path (default flat)")
+    parser.add_argument("--medium", choices=("water", "land"), default="water")
+    parser.add_argument("--out", type=Path, default=Path("plots"),
+                        help="directory of the pictures (default plots)")
     args = parser.parse_args(argv)
     if not (np.isfinite(args.rate) and 1.0 <= args.rate <= 1000.0):
         parser.error(f"--rate must be in [1, 1000] Hz, got {args.rate}")
@@ -75,9 +93,55 @@ class Tracker:
             self.errors.append(float(np.abs(self.measured - self.command).max()))
 
 
+class BodyTrack:
+    """The body's planar pose (x [m], y [m], yaw [rad]) from ``odom``: latest and marked."""
+
+    def __init__(self) -> None:
+        self.pose: np.ndarray | None = None
+        self.start: np.ndarray | None = None
+
+    def on_odom(self, msg: Any) -> None:
+        """odom callback."""
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        yaw = np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+        self.pose = np.array([p.x, p.y, yaw])
+
+    def mark(self) -> None:
+        """Take the latest pose as the start of the walk."""
+        self.start = None if self.pose is None else self.pose.copy()
+
+    def moved(self) -> np.ndarray:
+        """Displacement since `mark` in the body frame at the mark: forward, left [m]."""
+        if self.pose is None or self.start is None:
+            raise RuntimeError("no odom from seabed_sim")
+        d = self.pose[:2] - self.start[:2]
+        c, s = np.cos(self.start[2]), np.sin(self.start[2])
+        return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+
+def planned_advance(args: argparse.Namespace) -> np.ndarray:
+    """The walk's no-slip body displacement (forward, left [m]) of the plan the planner
+    executes for ``--gait`` / ``--steps`` with the configured step."""
+    from crawler_motion.model.config import load_config
+    from crawler_motion.motion.gait import WalkParams, plan_walk
+    from crawler_motion.sim.seabed.metrics import planned_displacement
+
+    cfg = load_config()
+    plan = plan_walk(cfg, WalkParams.defaults(cfg.gait, gait=args.gait), args.steps)
+    return planned_displacement(plan)[:2]
+
+
+def advance_line(moved: np.ndarray, planned: np.ndarray) -> str:
+    """The summary line of the body's advance ``moved`` against ``planned`` (forward, left [m])."""
+    ratio = moved[0] / planned[0] if abs(planned[0]) > 1e-6 else float("nan")
+    return (f"  body advance          {moved[0] * 1e3:.1f} mm of {planned[0] * 1e3:.1f} mm "
+            f"planned without slip ({ratio:.2f}), {moved[1] * 1e3:+.1f} mm left (odom)")
+
+
 def print_summary(status: dict[str, Any], counts: dict[str, int], errors: list[float],
-                  feet_err: float, elapsed: float) -> None:
-    """The demo's closing summary (``feet_err`` [m], ``elapsed`` [s])."""
+                  feet_err: float, elapsed: float, extra: Sequence[str] = ()) -> None:
+    """The demo's closing summary (``feet_err`` [m], ``elapsed`` [s]); ``extra`` lines go
+    before the wall time."""
     from crawler_motion.tools.console import describe
 
     print()
@@ -91,6 +155,8 @@ def print_summary(status: dict[str, Any], counts: dict[str, int], errors: list[f
     print(f"  largest tracking err  {max(errors) if errors else float('nan'):.4f} rad "
           f"over {len(errors)} measured samples while walking")
     print(f"  final foot error      {feet_err * 1e3:.2f} mm from the standing position")
+    for line in extra:
+        print(line)
     print(f"  wall time             {elapsed:.1f} s")
 
 
@@ -105,9 +171,15 @@ class Demo:
         self.cfg = load_config()
         self.protocol = MotorProtocol.from_config(self.cfg.robot)
         self.bus = BusSpec.fresh(args.interface, args.channel)
+        self.physical = args.sim == "seabed"
+        self.pictures = [args.out / f"{PICTURES}.png", args.out / f"{PICTURES}.gif"]
+        seabed = {"world": args.world, "medium": args.medium, "record_fps": RECORD_FPS,
+                  "record": str(args.out.resolve() / PICTURES)} if self.physical else None
         self.spec = StackSpec(self.bus, rate=args.rate, command_timeout=DEMO_COMMAND_TIMEOUT,
                               speed_limit=float(self.cfg.robot.velocity.max()),
-                              planner={"gait": args.gait}, names={n: n for n in EXECUTABLES})
+                              planner={"gait": args.gait}, names={n: n for n in EXECUTABLES},
+                              seabed=seabed)
+        self.body = BodyTrack()
         self.procs = StackProcesses(Path(tempfile.mkdtemp(prefix="crawler-demo-")))
         self.tap: Any = None
         self.console: Any = None
@@ -125,8 +197,12 @@ class Demo:
         from crawler_motion.testing.tap import BusTap, FamilyCounter
         from crawler_motion.tools.console import Console
 
-        self.say(f"starting motor manager sim, driver and planner on {self.bus} "
+        manager = (f"seabed_sim ({self.args.world} world, {self.args.medium})"
+                   if self.physical else "motor manager sim")
+        self.say(f"starting {manager}, driver and planner on {self.bus} "
                  f"(logs in {self.procs.logs})")
+        for old in self.pictures:
+            old.unlink(missing_ok=True)
         self.procs.start(self.spec.commands(), os.environ.copy())
         self.tap = BusTap(self.bus.open(), [FamilyCounter(self.protocol)], timeout=0.1)
         console = self.console = Console("crawler_demo")
@@ -135,11 +211,20 @@ class Demo:
                           lambda: (console.status or {}).get("state") in MOVING)
         console.node.create_subscription(JointState, "joint_commands", tracker.on_command, 50)
         console.node.create_subscription(JointState, "joint_states", tracker.on_state, 50)
+        if self.physical:
+            from nav_msgs.msg import Odometry
+
+            console.node.create_subscription(Odometry, "odom", self.body.on_odom, 10)
         if not console.connect(30.0):
-            raise RuntimeError("the planner did not come up within 30 s")
-        if not console.wait_until(lambda: tracker.measured is not None, 30.0):
+            raise RuntimeError(f"the planner did not come up within 30 s{self.procs.died()}")
+        console.wait_until(lambda: tracker.measured is not None or self.procs.died(), 30.0)
+        if self.procs.died():
+            raise RuntimeError(f"the stack did not come up{self.procs.died()}")
+        if tracker.measured is None:
             raise RuntimeError("no measured joint_states from the driver within 30 s "
                                "(is the driver active and the manager answering?)")
+        if self.physical and not console.wait_until(lambda: self.body.pose is not None, 30.0):
+            raise RuntimeError(f"no odom from seabed_sim within 30 s{self.procs.died()}")
         self.say("stack up: driver active, measured joint_states arriving")
         return tracker
 
@@ -148,6 +233,9 @@ class Demo:
         args = self.args
         for command in ({"command": "stand"},
                         {"command": "walk", "steps": args.steps, "gait": args.gait}):
+            if command["command"] == "walk":
+                self.console.spin_for(0.2)
+                self.body.mark()
             self.say(f"operator: {command}")
             ok, message = self.console.run_when_ready(command, args.timeout)
             if not ok:
@@ -165,7 +253,23 @@ class Demo:
         assert tracker.measured is not None
         q_end = tracker.measured.reshape(robot.n_legs, 3)
         feet_err = float(np.abs(forward_kinematics(robot, q_end) - robot.standing_feet()).max())
-        print_summary(self.console.status or {}, counts, tracker.errors, feet_err, elapsed)
+        extra = [advance_line(self.body.moved(), planned_advance(self.args))] \
+            if self.physical else []
+        print_summary(self.console.status or {}, counts, tracker.errors, feet_err, elapsed,
+                      extra)
+
+    def write_pictures(self) -> None:
+        """Stop the stack (the simulator renders on shutdown) and say where the pictures are."""
+        if not self.physical:
+            return
+        self.say("stopping the stack; seabed_sim renders its pictures on shutdown")
+        self.procs.stop(timeout=PICTURE_TIMEOUT)
+        if all(path.is_file() for path in self.pictures):
+            print(f"  pictures              {', '.join(str(p) for p in self.pictures)}")
+            return
+        said = [line.split("]: ", 1)[-1] for line in
+                self.procs.tail(self.spec.names["seabed_sim"], 20) if "pictures" in line]
+        print(f"  pictures              none: {said[-1] if said else 'see the seabed_sim log'}")
 
     def report_failure(self, exc: Exception) -> None:
         """The error and the last lines of every log, on stderr."""
@@ -198,6 +302,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         tracker = demo.start()
         demo.walk()
         demo.finish(tracker)
+        demo.write_pictures()
         return 0
     except (RuntimeError, OSError, can.CanError) as exc:
         demo.report_failure(exc)

@@ -11,10 +11,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from crawler_motion.driver.settings import FILE_PARAMETERS, PARAMETERS
+from crawler_motion.mapping.parameters import mapper_parameters
 from crawler_motion.model.config import Config, load_config
+from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS
 from crawler_motion.planner.parameters import CONFIG_FILE, planner_parameters
 from crawler_motion.runtime.cli_args import OneLineParser
 from crawler_motion.runtime.parameters import ParamSpec
+from crawler_motion.sim.seabed.parameters import SEABED_PARAMETERS
 
 PROG = "crawler-motion param-docs"
 #: The file this tool writes, relative to the repository root.
@@ -71,6 +74,25 @@ def render(cfg: Config) -> str:
         "A lifecycle node; read-only parameters apply at `configure`.",
         "",
         table(PARAMETERS, FILE_PARAMETERS),
+        "",
+        "## seabed_sim",
+        "",
+        "The physical motor manager ([docs/seabed.md](seabed.md)); every parameter is read at "
+        "start.",
+        "",
+        table(SEABED_PARAMETERS, {"config_file": "robot.yaml"}),
+        "",
+        "## terrain_mapper",
+        "",
+        "The elevation map ([docs/terrain.md](terrain.md)); every parameter is read at start.",
+        "",
+        table(mapper_parameters(cfg), {"config_file": "robot.yaml"}),
+        "",
+        "## navigator",
+        "",
+        "Goals around mapped obstacles ([docs/terrain.md](terrain.md)); read at start.",
+        "",
+        table(NAVIGATOR_PARAMETERS, {"config_file": "robot.yaml"}),
         "",
     ])
 

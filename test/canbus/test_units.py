@@ -15,7 +15,7 @@ from crawler_motion.canbus.bus import (
 from crawler_motion.canbus.busload import cycle_bits, frame_bits_worst_case
 from crawler_motion.canbus.crc import crc8_sae_j1850, frame_checksum
 from crawler_motion.canbus.frames import CONTROLLER_KINDS, FrameKind, Side, sender_of
-from crawler_motion.errors import ProtocolError
+from crawler_motion.errors import BusOpenError, ProtocolError
 
 
 @pytest.mark.parametrize(("data", "crc"), [
@@ -106,7 +106,11 @@ def test_open_bus_and_factory():
     finally:
         bus.shutdown()
         other.shutdown()
-    with pytest.raises(ValueError, match="cannot open the CAN bus no_such_interface x: "):
+    with pytest.raises(BusOpenError,
+                       match="cannot open the CAN bus no_such_interface x: ") as info:
         open_bus("no_such_interface", "x")
+    assert (info.value.interface, info.value.channel, info.value.port) == (
+        "no_such_interface", "x", 0)
+    assert isinstance(info.value, ValueError)
     with pytest.raises(can.CanInterfaceNotImplementedError):  # the factory passes errors on
         make_bus_factory("no_such_interface", "x")()

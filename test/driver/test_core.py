@@ -114,7 +114,9 @@ class Rig:
                                    heartbeat_period=0.1, command_timeout=1.0,
                                    initial_positions=STAND) if sim else None
         self.feedback: list[np.ndarray] = []
-        options = {"command_timeout": 0.2, "reopen_period": 0.2}
+        # a permissive step bound: these tests are about other rules (see test_step_bound)
+        options = {"command_timeout": 0.2, "reopen_period": 0.2, "step_speed_limit": 100.0,
+                   "step_margin": 1.0}
         options.update(settings)
         kwargs: dict[str, object] = {"settings": DriverSettings(**options),
                                      "clock": self.clock, "on_feedback": self.feedback.append}
@@ -125,6 +127,9 @@ class Rig:
                         else can.Bus(interface="virtual", channel=self.channel))
             self.core = DriverCore(proto, self.bus, **kwargs)
         self.core.open()
+        if self.sim is not None:  # a measured pose: the first command after enable needs one
+            self.sim.step(DT)
+            self.core.poll(0.05)
         self.frames: list[object] = []
         self.counter = 0
 
@@ -661,14 +666,43 @@ def test_feedback_is_published_once_every_group_is_fresh(proto):
         rig.close()
 
 
-def test_own_and_controller_frames_are_ignored_not_dropped(proto):
+def test_own_loop_back_is_ignored_and_foreign_controller_frames_are_an_error(proto):
     rig = Rig(proto, sim=False)
     try:
-        rig.spy.send(proto.encode_control("enable"))
+        rig.core.activate()  # sends enable
+        rig.spy.send(proto.encode_control("enable"))  # its loop-back (udp_multicast)
+        rig.core.poll()
+        c = rig.core.counters
+        assert (c.rx_ignored, c.foreign_controls, c.rx_dropped) == (1, 0, 0)
+        assert "foreign" not in rig.entry("motor manager").message
+        rig.spy.send(proto.encode_control("hold"))  # another controller / an attacker
         for msg in proto.encode_targets(STAND, 1):
             rig.spy.send(msg)
         rig.core.poll()
-        assert rig.core.counters.rx_ignored == 5 and rig.core.counters.rx_dropped == 0
+        c = rig.core.counters
+        assert (c.rx_ignored, c.foreign_controls, c.foreign_targets) == (1, 1, 4)
+        entry = rig.entry("motor manager")
+        assert entry.level == ERROR and "foreign target frame" in entry.message
+        rig.clock.advance(2.1)  # the alarm holds the ERROR for ALARM_HOLD after the last one
+        assert "foreign" not in rig.entry("motor manager").message
+    finally:
+        rig.close()
+
+
+def test_conflicting_frames_with_one_counter_are_an_attack_not_a_stale_drop(proto):
+    rig = Rig(proto, sim=False)
+    try:
+        genuine = proto.encode_feedback(proto.to_axis(STAND), 7)
+        forged = proto.encode_feedback(proto.to_axis(STAND + 0.3), 7)
+        for msg in [*genuine, genuine[0]]:  # an identical repeat: stale, dropped
+            rig.spy.send(msg)
+        rig.core.poll()
+        assert rig.core.counters.rx_conflicts == 0 and rig.core.counters.rx_dropped == 1
+        rig.spy.send(forged[0])  # the same counter, other data
+        rig.core.poll()
+        assert rig.core.counters.rx_conflicts == 1
+        np.testing.assert_allclose(rig.core.positions, STAND, atol=1e-3)  # not taken
+        assert "forged" in rig.entry("motor manager").message
     finally:
         rig.close()
 
@@ -804,6 +838,9 @@ def test_a_failing_logger_never_breaks_the_safety_path(proto):
     try:
         core.open()
         core.start()
+        for frame in proto.encode_feedback(proto.to_axis(STAND), 1):  # a measured pose
+            spy.send(frame)
+        assert wait_for(lambda: np.all(np.isfinite(core.positions)), 2.0)
         assert core.activate()[0]
         faults.fail_sends = 10**6  # logs "not sent", then "bus down" from the executor side
         for _ in range(FAILED_FRAMES_BEFORE_REOPEN + 1):
@@ -892,3 +929,59 @@ def test_reset_without_enable_is_an_error(rig):
     assert rig.core.enable()[0]
     rig.run(0.3, STAND)
     assert rig.entry("motor manager").level == OK, rig.entry("motor manager").message
+
+
+def test_a_hold_the_driver_did_not_send_is_an_error_until_enable(rig, proto):
+    rig.core.activate()
+    rig.run(0.3, STAND)
+    assert rig.entry("motor manager").level == OK
+    rig.spy.send(proto.encode_control("hold"))  # spoofed: the manager obeys it
+    rig.run(0.3, STAND)
+    entry = rig.entry("motor manager")
+    assert entry.level == ERROR and "hold, which the driver did not command" in entry.message
+    assert rig.core.counters.foreign_controls == 1
+    rig.clock.advance(2.1)  # the foreign-frame alarm is over; the manager is still in hold
+    rig.run(0.2, STAND)
+    assert "did not command" in rig.entry("motor manager").message
+    epoch = rig.core.enable_epoch
+    assert rig.core.enable()[0] and rig.core.enable_epoch == epoch + 1
+    rig.run(0.3, STAND)
+    assert rig.entry("motor manager").level == OK
+
+
+def test_a_heartbeat_without_positions_is_an_error(rig):
+    rig.core.activate()
+    rig.run(0.3, STAND)
+    for i in range(5):  # only heartbeats arrive (a frozen manager behind a forged heartbeat)
+        rig.spy.send(rig.proto.encode_heartbeat("enabled", 100 + i))
+        rig.clock.advance(0.1)
+        rig.core.poll()
+    entry = rig.entry("motor manager")
+    assert entry.level == ERROR and "heartbeat without positions" in entry.message
+
+
+def test_two_racing_publishers_are_refused(rig):
+    rig.core.activate()
+    rig.run(0.1)
+    names = list(JOINTS)
+    assert rig.core.submit(names, list(STAND), sequence=500).accepted
+    assert rig.core.submit(names, list(STAND), sequence=501).accepted
+    assert rig.core.submit(names, list(STAND), sequence=3).accepted  # a new publisher alone
+    result = rig.core.submit(names, list(STAND), sequence=502)  # the first again: racing
+    assert not result.accepted and "more than one publisher" in result.reason
+    assert rig.core.counters.sender_conflicts == 1
+    assert "more than one publisher" in rig.entry("motor manager").message
+    rig.clock.advance(2.1)
+    assert rig.core.submit(names, list(STAND), sequence=503).accepted
+
+
+def test_a_heartbeat_whose_counter_does_not_advance_is_no_sign_of_life(rig):
+    rig.core.activate()
+    rig.run(0.3, STAND)
+    rig.sim.silence_heartbeat()
+    for _ in range(5):  # a replayed heartbeat: the same frame again and again
+        rig.spy.send(rig.proto.encode_heartbeat("enabled", 7))
+        rig.run(0.1, STAND)
+    entry = rig.entry("motor manager")
+    assert entry.level == ERROR and "heartbeat missing" in entry.message
+    assert rig.core.counters.rx_dropped >= 4

@@ -360,7 +360,11 @@ def test_watchdog_holds_until_enable_service(vrig, graph):
     assert vrig.sim.counters.targets == targets  # not resumed by commands alone
     response = graph.trigger("enable")
     assert response.success, response.message
-    assert graph.stream(STAND, lambda: converged(graph, STAND), 5.0)
+    # after enable a command is bounded from the measured pose (GOAL): STAND is refused
+    graph.stream(STAND, lambda: False, 0.3)
+    assert vrig.sim.counters.targets == targets
+    assert node._core.counters.step_refused > 0
+    assert graph.stream(GOAL, lambda: vrig.sim.counters.targets > targets, 5.0)
 
 
 def test_estop_service_topic_and_planner_status(vrig, graph):
@@ -380,7 +384,7 @@ def test_estop_service_topic_and_planner_status(vrig, graph):
     assert response.success and "~/enable" in response.message
     assert wait_until(lambda: vrig.sim.state == "disabled", 1.0)
     assert graph.trigger("enable").success
-    assert graph.stream(STAND, lambda: converged(graph, STAND), 5.0)
+    assert graph.stream(GOAL, lambda: vrig.sim.counters.targets > targets, 5.0)
     # the estop topic latches too
     estop_pub = graph.client.create_publisher(Bool, "estop", 10)
     assert wait_until(lambda: estop_pub.get_subscription_count() > 0, 2.0)

@@ -358,3 +358,18 @@ def test_knee_down_leg_has_its_knee_below_the_shoulder_foot_line_in_the_urdf():
         t = np.dot(knee - shoulder, foot - shoulder) / np.dot(foot - shoulder, foot - shoulder)
         closest = shoulder + t * (foot - shoulder)  # point of the shoulder-foot line nearest
         assert np.sign(knee[2] - closest[2]) == robot.knee_sign[i], leg
+
+
+# ---------------------------------------------------------------- calibrated legs
+
+@pytest.mark.parametrize("seed", [3, 11])
+def test_calibrated_urdf_foot_positions_equal_the_calibrated_fk(seed):
+    from crawler_motion.calibration.synthetic import perturbed_robot
+
+    robot = perturbed_robot(ROBOT, seed)
+    model = Urdf(generate_urdf(robot))
+    rng = np.random.default_rng(seed)
+    for angles in rng.uniform(robot.lower, robot.upper, size=(25, 4, 3)):
+        assert_urdf_matches_fk(robot, model, angles)
+        # the calibrated URDF is not the nominal one: the feet differ by assembly errors
+        assert np.abs(model.feet(robot, angles) - forward_kinematics(ROBOT, angles)).max() > 5e-4

@@ -509,11 +509,17 @@ def test_pause_holds_before_a_new_slot_and_resumes_smoothly():
     clock.run(1.0)
     assert np.all(positions(clock)[-100:] == held)
     clock.core.set_paused(False, clock.t)
-    clock.tick()
-    clock.tick()
-    q = positions(clock)
-    np.testing.assert_allclose(q[-2], held, atol=1e-12)  # resumes exactly where it held
-    assert not np.all(q[-1] == held)
+    sagged = held + 0.05  # the joints drifted while paused
+    clock.core.set_measured(sagged, clock.t)
+    n = len(positions(clock))
+    clock.run(0.02)
+    q = positions(clock)[n:]
+    step = ROBOT.velocity.max() * DT
+    assert np.abs(q[0] - sagged).max() <= step  # resumes from the measured pose
+    clock.run(1.2)  # the resume move (>= 1 s) ends at the held pose, then the walk goes on
+    q = positions(clock)[n:]
+    assert np.abs(np.diff(q, axis=0)).max() <= step
+    assert any(np.abs(row - held).max() < 1e-9 for row in q) and not np.all(q[-1] == held)
     clock.send('{"command": "stop"}')
     clock.until(STANDING)
 
@@ -527,8 +533,10 @@ def test_pause_during_stop_waits_then_finishes():
     clock.run(2.0)
     assert clock.core.state == STOPPING
     clock.core.set_paused(False, clock.t)
+    clock.measure()
     t = clock.t
-    assert clock.until(STANDING) - t == pytest.approx(SLOT, abs=DT)
+    # the resume move from the measured pose (the minimum 1 s: nothing drifted), then a slot
+    assert clock.until(STANDING) - t == pytest.approx(moves.MIN_MOVE_TIME + SLOT, abs=3 * DT)
 
 
 # ------------------------------------------------------------------ output properties

@@ -25,7 +25,7 @@ from std_msgs.msg import String
 from crawler_motion.model.config import load_config
 from crawler_motion.motion.gait import standing_pose
 from crawler_motion.planner.moves import sitting_pose
-from crawler_motion.planner.node import PlannerNode
+from crawler_motion.planner.node import STATUS_MIN_INTERVAL, PlannerNode
 
 CFG = load_config()
 NAMES = list(CFG.robot.joint_names)
@@ -295,3 +295,79 @@ def test_main_refuses_invalid_parameters_and_exits_1(param, fragment):
     assert proc.returncode == 1
     assert "planner cannot start" in proc.stderr + proc.stdout
     assert fragment in proc.stderr + proc.stdout
+
+
+def test_calibration_file_gives_the_planner_its_legs(tmp_path):
+    from crawler_motion.calibration.synthetic import perturbed_robot
+    from crawler_motion.model.calibration_file import write_calibration
+    from crawler_motion.model.config import load_config
+
+    true = perturbed_robot(load_config().robot, 3)
+    write_calibration(tmp_path / "legs.yaml", true.geometry)
+    env = Ros([Parameter("calibration_file", value=str(tmp_path / "legs.yaml"))])
+    try:
+        assert env.planner.cfg.robot.calibrated
+        np.testing.assert_array_equal(env.planner.cfg.robot.geometry.params,
+                                      true.geometry.params)
+        result = env.planner.set_parameters([Parameter("calibration_file", value="")])[0]
+        assert not result.successful  # read-only
+    finally:
+        env.close()
+
+
+def test_main_refuses_an_implausible_calibration_file(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("calibration: {legs: {rf: {knee_offset: 0.2}}}")  # 11.5 deg
+    proc = subprocess.run(
+        [sys.executable, "-m", "crawler_motion.planner.node", "--ros-args", "-p",
+         f"calibration_file:={bad}"], capture_output=True, text=True, timeout=20)
+    assert proc.returncode == 1
+    assert "beyond ±10 deg" in proc.stderr + proc.stdout
+
+
+def test_a_flood_of_bad_commands_is_counted_not_republished_one_by_one(ros):
+    probe = ros.probe
+    probe.wait_state("IDLE", 0)
+    mark = probe.mark()
+    before = probe.last_status().get("refusals", 0)
+    n = 300
+    t0 = time.monotonic()
+    for _ in range(n):
+        probe.send("{oops")
+        time.sleep(0.002)  # the subscription keeps 10: a faster flood is dropped by DDS
+    time.sleep(0.5)  # the last refusals reach the status
+    elapsed = time.monotonic() - t0
+    status = probe.last_status()
+    refused = status["refusals"] - before
+    published = len(probe.statuses) - mark
+    # one status per STATUS_MIN_INTERVAL at most (+ the periodic one), not one per refusal
+    assert refused > 100 and published <= elapsed / STATUS_MIN_INTERVAL + 3, (
+        refused, published, elapsed)
+    assert "not valid JSON" in status["last_refusal"]
+
+
+def test_driver_status_ends_a_walk_and_bad_text_is_ignored(ros):
+    probe = ros.probe
+    pub = probe.create_publisher(String, "driver_status", QoSProfile(  # as the driver's
+        depth=1, reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    probe.wait_state("IDLE", 0)
+    deadline = time.monotonic() + 5.0
+    while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    pub.publish(String(data='{"state": "flying"}'))  # ignored with a warning
+    enabled = String(data=json.dumps({"state": "enabled", "enable_epoch": 1}))
+    for _ in range(50):
+        pub.publish(enabled)
+        if probe.last_status().get("driver") == "enabled":
+            break
+        time.sleep(0.1)
+    probe.wait_status(lambda s: s["driver"] == "enabled")
+    mark = probe.mark()
+    probe.send('{"command": "stand"}')
+    probe.wait_state("STANDING", mark)
+    mark = probe.mark()
+    pub.publish(String(data=json.dumps({"state": "estop", "enable_epoch": 1,
+                                        "reason": "~/estop service"})))
+    status = probe.wait_state("IDLE", mark)
+    assert "ended" in status["last_event"] and status["driver"] == "estop"

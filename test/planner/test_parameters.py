@@ -27,12 +27,12 @@ def settings(values):
 
 def test_parameter_names_defaults_and_flags():
     assert [spec.name for spec in SPECS] == [
-        "config_file", "rate", "cmd_vel_timeout", "fault_hardware_id", "tick_priority", "gait",
-        "profile", "stride", "lift", "arc", "swing_time", "body_height"]
+        "config_file", "calibration_file", "rate", "cmd_vel_timeout", "fault_hardware_id",
+        "tick_priority", "gait", "profile", "stride", "lift", "arc", "swing_time", "body_height"]
     assert {name for name, spec in BY_NAME.items() if spec.read_only} == {
-        "config_file", "tick_priority"}
+        "config_file", "calibration_file", "tick_priority"}
     assert default_values(SPECS) == {
-        "config_file": "robot.yaml", "rate": 100.0, "cmd_vel_timeout": 0.5,
+        "config_file": "robot.yaml", "calibration_file": "", "rate": 100.0, "cmd_vel_timeout": 0.5,
         "fault_hardware_id": "motor_manager", "tick_priority": 0, "gait": G.gait,
         "profile": G.profile, "stride": G.stride, "lift": G.lift, "arc": G.arc,
         "swing_time": G.swing_time, "body_height": CFG.robot.body_height}

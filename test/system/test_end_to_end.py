@@ -144,8 +144,32 @@ def test_walk_end_to_end_on_a_cross_process_bus(stack: dict[str, Any]) -> None:
 
 def test_demo_command_runs_and_exits_zero() -> None:
     proc = subprocess.run(
-        [sys.executable, "-m", "crawler_motion.tools.cli", "demo", "--steps", "1"],
-        capture_output=True, text=True, timeout=120)
+        [sys.executable, "-m", "crawler_motion.tools.cli", "demo", "--steps", "1",
+         "--sim", "joint"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "summary" in proc.stdout
     assert "final state           STANDING" in proc.stdout
+    assert "body advance" not in proc.stdout and "pictures" not in proc.stdout
+
+
+def test_physical_demo_walks_the_body_and_writes_its_picture(tmp_path: Path) -> None:
+    # the seabed package picks the headless GL backend before it imports mujoco
+    render = pytest.importorskip("crawler_motion.sim.seabed.render",
+                                 reason="the physical demo needs the mujoco package")
+
+    proc = subprocess.run(
+        [sys.executable, "-m", "crawler_motion.tools.cli", "demo", "--steps", "1",
+         "--out", str(tmp_path / "pictures")], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "final state           STANDING" in proc.stdout
+    advance = [line for line in proc.stdout.splitlines() if "body advance" in line]
+    assert len(advance) == 1, proc.stdout
+    moved, planned = (float(v) for v in advance[0].split()[2:6:3])
+    assert planned == pytest.approx(180.0, abs=0.1), advance  # 1 diagonal step, no slip
+    assert 0.5 * planned < moved < 1.5 * planned, advance
+    reason = render.gl_unavailable()
+    if reason is not None:
+        pytest.skip(f"walk checked; no picture expected here: {reason}")
+    assert (tmp_path / "pictures" / "demo_walk.png").is_file(), proc.stdout[-2000:]
+    assert (tmp_path / "pictures" / "demo_walk.gif").is_file()
+    assert f"pictures              {tmp_path / 'pictures' / 'demo_walk.png'}" in proc.stdout

@@ -201,7 +201,10 @@ def _template() -> tuple[PlannerCore, float]:
 
 def check_target(core: PlannerCore, target: JointTarget | None) -> None:
     """The planner's output invariants (see the module docstring)."""
-    assert (target is None) == (core.state in (IDLE, ESTOP)), (core.state, target)
+    # nothing in IDLE and ESTOP, nor while a resume waits for a measurement taken after the
+    # interruption (a late tick, see planner.resume)
+    waiting = bool(core.resumer.pending) and not core.paused
+    assert (target is None) == (core.state in (IDLE, ESTOP) or waiting), (core.state, target)
     if target is None:
         return
     q, qd = np.asarray(target.positions), np.asarray(target.velocities)
@@ -309,9 +312,13 @@ class BusRig:
         self.listener = can.Bus(interface="virtual", channel=channel,
                                 receive_own_messages=False)
         self.now = 1000.0
+        self.settings = DriverSettings(command_timeout=command_timeout, step_speed_limit=5.0,
+                                       step_margin=0.5)
         self.core = DriverCore(PROTO, self.bus, clock=lambda: self.now, logger=_Quiet(),
-                               settings=DriverSettings(command_timeout=command_timeout))
+                               settings=self.settings)
         self.core.open()
+        self._feedback_counter = 0
+        self.measure(STAND)
         ok, why = self.core.activate()
         assert ok, why
         assert self.drain() == []
@@ -326,6 +333,14 @@ class BusRig:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    def measure(self, q: np.ndarray) -> None:
+        """The manager reports the joints at ``q`` [rad, joint order] (a perfect robot)."""
+        self._feedback_counter += 1
+        for msg in PROTO.encode_feedback(PROTO.to_axis(np.asarray(q)), self._feedback_counter):
+            self.listener.send(msg)
+        self.core.poll(0.05)
+        self.measured = np.asarray(q, dtype=float)
 
     def drain(self) -> list[TargetFrame]:
         """Decode every frame on the bus since the last call; the target frames among them."""
@@ -440,6 +455,34 @@ def expected_valid(names: Sequence[str], positions: Sequence[Any], velocities: S
                for name, q in zip(names, positions, strict=True))
 
 
+class StepModel:
+    """The driver's step bound, written independently of it: from the last accepted command
+    (after an enable: the measured pose), at most speed x elapsed + margin per joint, elapsed
+    clamped to [one target period, command_timeout]."""
+
+    def __init__(self, rig: BusRig) -> None:
+        self.rig = rig
+        self.last: dict[str, float] | None = None
+        self.time = 0.0
+
+    def forget(self) -> None:
+        self.last = None
+
+    def within(self, names: Sequence[str], positions: Sequence[float]) -> bool:
+        s, period = self.rig.settings, PROTO.cycle_period("target")
+        if self.last is None:
+            ref, elapsed = dict(zip(JOINTS, self.rig.measured.tolist(), strict=True)), period
+        else:
+            ref = self.last
+            elapsed = min(max(self.rig.now - self.time, period), s.command_timeout)
+        allowed = s.step_speed_limit * elapsed + s.step_margin
+        return all(abs(q - ref[n]) <= allowed for n, q in zip(names, positions, strict=True))
+
+    def sent(self, names: Sequence[str], positions: Sequence[float]) -> None:
+        self.last = dict(zip(names, (float(q) for q in positions), strict=True))
+        self.time = self.rig.now
+
+
 DRIVER_ACTIONS = st.one_of(
     st.tuples(st.just("submit"), joint_commands()),
     st.tuples(st.just("submit"), joint_commands()),
@@ -454,6 +497,7 @@ def test_fuzz_joint_commands_into_the_driver(actions):
     RUNS["examples"] += 1
     with BusRig() as rig:
         core = rig.core
+        step = StepModel(rig)
         for action in actions:
             if action[0] == "submit":
                 RUNS["inputs"] += 1
@@ -462,7 +506,11 @@ def test_fuzz_joint_commands_into_the_driver(actions):
                 result = core.submit(names, positions, velocities, efforts)
                 assert isinstance(result, CommandResult)
                 valid = expected_valid(names, positions, velocities, efforts)
-                assert result.accepted == (valid and allowed), (valid, allowed, result)
+                within = valid and allowed and step.within(names, positions)
+                assert result.accepted == (valid and allowed and within), (
+                    valid, allowed, within, result)
+                if result.accepted:
+                    step.sent(names, positions)
                 assert result.accepted or result.reason
                 frames = rig.drain()
                 if result.accepted:
@@ -478,6 +526,8 @@ def test_fuzz_joint_commands_into_the_driver(actions):
                 core.tick()
             else:
                 getattr(core, action[0])()
+                if action[0] in ("enable", "activate"):
+                    step.forget()  # the next command is bounded from the measured pose
             assert rig.drain() == [], f"target frames after {action[0]}"
 
 
@@ -486,16 +536,19 @@ def test_fuzz_joint_commands_into_the_driver(actions):
 @given(st.lists(COMMAND | TWIST | TWIST | FEW_TICKS | FEW_TICKS | JUMP | MEASURE, max_size=6))
 def test_fuzz_planner_targets_through_the_driver_onto_the_bus(actions):
     with BusRig(command_timeout=10.0) as rig:
+        last = [STAND]  # the last target forwarded
 
         def forward(target: JointTarget, now: float) -> None:
             RUNS["inputs"] += 1
             rig.now = 1000.0 + now
             rig.core.tick()
             if rig.core.watchdog_tripped:  # a long ESTOP / IDLE: the operator re-enables
+                rig.measure(last[0])  # where the (perfect) robot holds
                 rig.core.enable()
             q = np.asarray(target.positions).tolist()
             result = rig.core.submit(JOINTS, q, np.asarray(target.velocities).tolist())
             assert result.accepted and result.sent, result.reason
+            last[0] = np.asarray(q)
             RUNS["accepted"] += 1
             check_sent(rig.drain(), dict(zip(JOINTS, q, strict=True)))
 

@@ -19,9 +19,10 @@ def test_committed_page_matches_the_declarations() -> None:
 def test_every_declared_parameter_has_a_row() -> None:
     from crawler_motion.driver.settings import PARAMETERS
     from crawler_motion.planner.parameters import planner_parameters
+    from crawler_motion.sim.seabed.parameters import SEABED_PARAMETERS
 
     text = param_docs.render(load_config())
-    for spec in (*PARAMETERS, *planner_parameters(load_config(), "")):
+    for spec in (*PARAMETERS, *planner_parameters(load_config(), ""), *SEABED_PARAMETERS):
         assert f"| `{spec.name}` |" in text
 
 

@@ -1,0 +1,1 @@
+"""Leg kinematic calibration: error Jacobian, excitation poses, identification (RLS, DE)."""

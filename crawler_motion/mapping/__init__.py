@@ -1,0 +1,1 @@
+"""Terrain mapping: the elevation grid, Kalman cell fusion and obstacle cells (pure numpy)."""

@@ -1,0 +1,141 @@
+"""The ``terrain_mapper`` ROS node: ``scan`` + ``odom`` in, the elevation map out.
+
+Subscribes ``scan`` (sensor_msgs/PointCloud2 in the scanner frame, float32 x y z) and ``odom``
+(nav_msgs/Odometry); publishes at ``publish_rate`` ``terrain_map`` (nav_msgs/OccupancyGrid in
+the map frame: 100 obstacle, 0 free, -1 unknown) and ``terrain_heights``
+(sensor_msgs/PointCloud2 in the map frame: one point per known cell centre, fields x y z
+variance float32, z the fused height [m], variance [m²]). A skipped scan is counted by reason
+and logged (at most once a second per reason). All the work is in `mapper.TerrainMapper`.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from nav_msgs.msg import OccupancyGrid, Odometry
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import PointCloud2, PointField
+
+from crawler_motion.mapping.mapper import Pose, SkipReason, TerrainMapper
+from crawler_motion.mapping.parameters import mapper_parameters, mapper_settings
+from crawler_motion.mapping.points import Mount
+from crawler_motion.model.config import load_config, load_scanner
+from crawler_motion.model.rotations import quaternion_matrix
+from crawler_motion.runtime.ros_main import run_node
+from crawler_motion.runtime.ros_parameters import descriptor
+
+NAME = "terrain_mapper"
+FIELDS = ("x", "y", "z", "variance")
+
+
+def stamp_seconds(stamp: Any) -> float:
+    """A builtin_interfaces/Time as seconds."""
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def read_xyz(msg: PointCloud2) -> np.ndarray | None:
+    """The x y z float32 fields of a cloud as ``(k, 3)`` float64; None if it has none."""
+    fields = {f.name: f for f in msg.fields}
+    if any(n not in fields or fields[n].datatype != PointField.FLOAT32 for n in "xyz"):
+        return None
+    count = msg.width * msg.height
+    if msg.point_step < 12 or len(msg.data) < count * msg.point_step:
+        return None
+    dtype = np.dtype({"names": list("xyz"), "formats": ["<f4" if not msg.is_bigendian
+                                                         else ">f4"] * 3,
+                      "offsets": [fields[n].offset for n in "xyz"],
+                      "itemsize": msg.point_step})
+    arr = np.frombuffer(bytes(msg.data[:count * msg.point_step]), dtype=dtype, count=count)
+    return np.column_stack([arr[n].astype(float) for n in "xyz"])
+
+
+class TerrainMapperNode(Node):
+    """Subscriptions, timer and publishers around a `TerrainMapper`."""
+
+    def __init__(self) -> None:
+        super().__init__(NAME)
+        specs = mapper_parameters(load_config())
+        for spec in specs:
+            self.declare_parameter(spec.name, spec.default, descriptor(spec))
+        values = {s.name: self.get_parameter(s.name).value for s in specs}
+        cfg_file = values["config_file"] or None
+        scanner = load_scanner(cfg_file)
+        if cfg_file is not None:  # the threshold default of that robot
+            specs = mapper_parameters(load_config(cfg_file))
+        self.mapper = TerrainMapper(mapper_settings(specs, values),
+                                    Mount.from_config(scanner))
+        self.frame, self.scanner_frame = values["map_frame"], values["scanner_frame"]
+        self._map = self.create_publisher(OccupancyGrid, "terrain_map", 2)
+        self._heights = self.create_publisher(PointCloud2, "terrain_heights", 2)
+        self.create_subscription(PointCloud2, "scan", self._on_scan, qos_profile_sensor_data)
+        self.create_subscription(Odometry, "odom", self._on_odom, 20)
+        self.create_timer(1.0 / values["publish_rate"], self._publish)
+        self.get_logger().info(f"{NAME}: {self.mapper.settings.cells}² cells of "
+                               f"{self.mapper.settings.resolution:g} m in {self.frame}")
+
+    def _skip(self, reason: SkipReason) -> None:
+        self.get_logger().warning(
+            f"scan skipped: {reason.value} ({self.mapper.skipped[reason]} so far)",
+            throttle_duration_sec=1.0)
+
+    def _on_odom(self, msg: Odometry) -> None:
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        try:
+            rot = quaternion_matrix(np.array([q.w, q.x, q.y, q.z]))
+        except ValueError:
+            rot = np.full((3, 3), np.nan)
+        reason = self.mapper.add_odometry(Pose(stamp_seconds(msg.header.stamp), rot,
+                                               np.array([p.x, p.y, p.z])))
+        if reason is not None:
+            self.get_logger().warning(f"odom skipped: {reason.value}", throttle_duration_sec=1.0)
+
+    def _on_scan(self, msg: PointCloud2) -> None:
+        points = read_xyz(msg)
+        if msg.header.frame_id != self.scanner_frame or points is None:
+            self.mapper.skipped[SkipReason.MALFORMED] += 1
+            self._skip(SkipReason.MALFORMED)
+            return
+        before = self.mapper.skipped[SkipReason.NON_FINITE_POINTS]
+        reason = self.mapper.add_scan(points, stamp_seconds(msg.header.stamp))
+        if reason is not None:
+            self._skip(reason)
+        elif self.mapper.skipped[SkipReason.NON_FINITE_POINTS] > before:
+            self._skip(SkipReason.NON_FINITE_POINTS)
+
+    def _publish(self) -> None:
+        stamp = self.get_clock().now().to_msg()
+        g = self.mapper.grid
+        grid = OccupancyGrid()
+        grid.header.stamp, grid.header.frame_id = stamp, self.frame
+        grid.info.resolution = float(g.resolution)
+        grid.info.width = grid.info.height = g.cells
+        grid.info.origin.position.x, grid.info.origin.position.y = (float(v) for v in g.origin)
+        grid.info.origin.orientation.w = 1.0
+        grid.data = self.mapper.occupancy().ravel().tolist()
+        self._map.publish(grid)
+        xs, ys = g.centres()
+        known = g.known
+        cloud = np.column_stack((xs[known], ys[known], g.height[known], g.variance[known]))
+        msg = PointCloud2()
+        msg.header.stamp, msg.header.frame_id = stamp, self.frame
+        msg.height, msg.width = 1, len(cloud)
+        msg.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1)
+                      for i, n in enumerate(FIELDS)]
+        msg.is_bigendian, msg.is_dense = sys.byteorder == "big", True
+        msg.point_step, msg.row_step = 16, 16 * len(cloud)
+        msg.data = np.ascontiguousarray(cloud, dtype=np.float32).tobytes()
+        self._heights.publish(msg)
+
+
+def main(args: Sequence[str] | None = None) -> None:
+    """Console script ``terrain_mapper``: run until Ctrl-C; a bad parameter prints one line and
+    exits 1."""
+    run_node(TerrainMapperNode, f"{NAME}: error", args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,72 @@
+"""The terrain_mapper node's parameters as `ParamSpec`s and the settings they build (pure)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from crawler_motion.errors import ConfigError
+from crawler_motion.mapping.mapper import MapperSettings
+from crawler_motion.mapping.obstacles import step_threshold
+from crawler_motion.mapping.points import NoiseModel
+from crawler_motion.model.config import Config
+from crawler_motion.runtime.parameters import ParamSpec, not_empty, validate_parameters
+
+
+def mapper_parameters(cfg: Config) -> tuple[ParamSpec, ...]:
+    """The parameters; the obstacle threshold's default is the robot's `step_threshold`."""
+    return (
+        ParamSpec("config_file", "", "robot.yaml (scanner mount, step height; default: the "
+                  "shipped one)", read_only=True),
+        ParamSpec("map_frame", "odom", "frame of the map and of odom's pose", read_only=True,
+                  check=not_empty),
+        ParamSpec("scanner_frame", "scanner_link", "frame_id a scan must have",
+                  read_only=True, check=not_empty),
+        ParamSpec("resolution", 0.05, "cell side [m]", read_only=True, minimum=0.005,
+                  maximum=1.0, unit="m"),
+        ParamSpec("size", 4.0, "side of the square map window around the robot [m]",
+                  read_only=True, minimum=0.5, maximum=50.0, unit="m"),
+        ParamSpec("gate", 2.5, "Mahalanobis gate: a return farther from its cell's height (in "
+                  "cell standard deviations) is not fused; the cell's variance grows",
+                  read_only=True, minimum=0.5, maximum=100.0),
+        ParamSpec("drift", 1e-5, "variance growth of every known cell per metre of travel "
+                  "[m²/m]", read_only=True, minimum=0.0, maximum=1.0, unit="m²/m"),
+        ParamSpec("range_noise", 0.005, "scanner range noise, standard deviation [m]",
+                  read_only=True, minimum=0.0, maximum=1.0, unit="m"),
+        ParamSpec("lateral_noise", 0.002, "scanner noise across the beam, standard deviation "
+                  "per metre of range [m/m]", read_only=True, minimum=0.0, maximum=1.0,
+                  unit="m/m"),
+        ParamSpec("attitude_noise", 0.02, "body roll and pitch noise, standard deviation "
+                  "[rad] (includes the attitude change between a scan and its odometry "
+                  "sample)", read_only=True, minimum=0.0, maximum=1.0, unit="rad"),
+        ParamSpec("obstacle_height", step_threshold(cfg), "a cell higher than its local "
+                  "ground by more is an obstacle [m] (default: min(lift + arc, belly "
+                  "clearance) of robot.yaml)", read_only=True, minimum=0.001, maximum=1.0,
+                  unit="m"),
+        ParamSpec("confidence", 2.0, "a cell must clear obstacle_height by this many standard "
+                  "deviations of its height", read_only=True, minimum=0.0, maximum=10.0),
+        ParamSpec("ground_radius", 0.25, "the local ground is the lowest known cell within "
+                  "this [m]", read_only=True, minimum=0.0, maximum=5.0, unit="m"),
+        ParamSpec("odom_window", 1.0, "odometry kept; an older scan is skipped [s]",
+                  read_only=True, minimum=0.05, maximum=60.0, unit="s"),
+        ParamSpec("pose_tolerance", 0.05, "largest stamp gap between a scan and the odometry "
+                  "sample used for it [s]", read_only=True, minimum=0.001, maximum=1.0,
+                  unit="s"),
+        ParamSpec("publish_rate", 10.0, "terrain_map and terrain_heights rate [Hz]",
+                  read_only=True, minimum=0.1, maximum=50.0, unit="Hz"),
+    )
+
+
+def mapper_settings(specs: tuple[ParamSpec, ...], values: Mapping[str, Any]
+                    ) -> MapperSettings:
+    """Validated settings; `ConfigError` naming every bad value."""
+    reasons = validate_parameters(specs, values)
+    if reasons:
+        raise ConfigError("; ".join(reasons))
+    v = values
+    noise = NoiseModel(v["range_noise"], v["lateral_noise"], v["attitude_noise"])
+    return MapperSettings(resolution=v["resolution"], size=v["size"], gate=v["gate"],
+                          drift=v["drift"], noise=noise, obstacle_height=v["obstacle_height"],
+                          confidence=v["confidence"],
+                          ground_radius=v["ground_radius"], odom_window=v["odom_window"],
+                          pose_tolerance=v["pose_tolerance"])

@@ -1,0 +1,1 @@
+"""Navigation: the virtual body, heading rules and steering around mapped obstacles (pure)."""

@@ -1,0 +1,183 @@
+"""The ``navigator`` ROS node: goal in, ``cmd_vel`` out, around the mapped obstacles.
+
+Subscribes ``goal_pose`` (geometry_msgs/PoseStamped in the map frame), ``terrain_map``
+(nav_msgs/OccupancyGrid) and ``terrain_heights`` (sensor_msgs/PointCloud2 x y z variance) of
+``terrain_mapper``, ``odom`` and ``joint_states``; serves ``~/cancel`` (std_srvs/Trigger).
+On every map it runs one cycle of the method (parameter ``method``; `navigator.METHODS`) and
+publishes the twist on ``cmd_vel``. Publishes ``navigation_status`` (std_msgs/String JSON,
+transient local) on every change and once a second. Leaving ACTIVE (arrived, failed,
+cancelled) sends a zero twist: the planner stops the walk into standing. A goal in another
+frame or not finite is refused (counted, logged, in the status) and changes nothing. Without
+fresh odometry the robot is stopped until it returns. Until joint_states arrive the virtual
+radius is the envelope radius.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped, Twist, Vector3
+from nav_msgs.msg import OccupancyGrid, Odometry
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from sensor_msgs.msg import JointState, PointCloud2, PointField
+from std_msgs.msg import String
+from std_srvs.srv import Trigger
+
+from crawler_motion.errors import CommandError
+from crawler_motion.model.config import load_config
+from crawler_motion.model.joint_state import validate_joint_state
+from crawler_motion.model.rotations import quaternion_matrix, yaw_of
+from crawler_motion.navigation.body import envelope_radius, virtual_radius
+from crawler_motion.navigation.navigator import METHODS, Method, NavState
+from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
+from crawler_motion.navigation.view import view_from_grid
+from crawler_motion.runtime.ros_main import run_node
+from crawler_motion.runtime.ros_parameters import descriptor
+
+NAME = "navigator"
+STATUS_PERIOD = 1.0  # [s]
+
+
+def read_heights(msg: PointCloud2) -> np.ndarray | None:
+    """``(k, 4)`` x y z variance of a terrain_heights cloud; None when it lacks the fields."""
+    fields = {f.name: f for f in msg.fields}
+    names = ("x", "y", "z", "variance")
+    if any(n not in fields or fields[n].datatype != PointField.FLOAT32 for n in names):
+        return None
+    count = msg.width * msg.height
+    dtype = np.dtype({"names": list(names), "formats": ["<f4"] * 4,
+                      "offsets": [fields[n].offset for n in names],
+                      "itemsize": msg.point_step})
+    if len(msg.data) < count * msg.point_step:
+        return None
+    arr = np.frombuffer(bytes(msg.data[:count * msg.point_step]), dtype=dtype, count=count)
+    return np.column_stack([arr[n].astype(float) for n in names])
+
+
+class NavigatorNode(Node):
+    """Subscriptions and publishers around one navigator core."""
+
+    def __init__(self) -> None:
+        super().__init__(NAME)
+        for spec in NAVIGATOR_PARAMETERS:
+            self.declare_parameter(spec.name, spec.default, descriptor(spec))
+        values = {s.name: self.get_parameter(s.name).value for s in NAVIGATOR_PARAMETERS}
+        settings = navigator_settings(values)
+        self.cfg = load_config(values["config_file"] or None)
+        self.nav = METHODS[Method(values["method"])](settings)
+        self.frame, self.odom_timeout = values["map_frame"], values["odom_timeout"]
+        self.radius = envelope_radius(self.cfg.robot)
+        self.refusals, self.last_refusal = 0, ""
+        self._pose: tuple[float, float, float] | None = None
+        self._pose_at = -1e9
+        self._heights: np.ndarray | None = None
+        self._last_status = ""
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._cmd = self.create_publisher(Twist, "cmd_vel", 10)
+        self._status = self.create_publisher(String, "navigation_status", latched)
+        self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
+        self.create_subscription(OccupancyGrid, "terrain_map", self._on_map, 2)
+        self.create_subscription(PointCloud2, "terrain_heights", self._on_heights, 2)
+        self.create_subscription(Odometry, "odom", self._on_odom, 20)
+        self.create_subscription(JointState, "joint_states", self._on_joints,
+                                 qos_profile_sensor_data)
+        self.create_service(Trigger, "~/cancel", self._on_cancel)
+        self.create_timer(STATUS_PERIOD, lambda: self._publish_status(force=True))
+        self._publish_status(force=True)
+
+    def _refuse(self, why: str) -> None:
+        self.refusals, self.last_refusal = self.refusals + 1, why
+        self.get_logger().warning(f"goal refused: {why}")
+        self._publish_status(force=True)
+
+    def _on_goal(self, msg: PoseStamped) -> None:
+        if msg.header.frame_id != self.frame:
+            self._refuse(f"goal in frame '{msg.header.frame_id}'; send it in '{self.frame}'")
+            return
+        try:
+            self.nav.set_goal(msg.pose.position.x, msg.pose.position.y, time.monotonic())
+        except CommandError as exc:
+            self._refuse(str(exc))
+            return
+        self.get_logger().info(f"goal ({msg.pose.position.x:.3f}, {msg.pose.position.y:.3f})")
+        self._publish_status()
+
+    def _on_odom(self, msg: Odometry) -> None:
+        q, p = msg.pose.pose.orientation, msg.pose.pose.position
+        try:
+            yaw = yaw_of(quaternion_matrix(np.array([q.w, q.x, q.y, q.z])))
+        except ValueError:
+            return
+        if np.isfinite([p.x, p.y, yaw]).all():
+            self._pose, self._pose_at = (p.x, p.y, yaw), time.monotonic()
+
+    def _on_joints(self, msg: JointState) -> None:
+        try:
+            q = validate_joint_state(msg.name, msg.position, msg.velocity,
+                                     self.cfg.robot.joint_names)
+        except CommandError:
+            return
+        self.radius = virtual_radius(self.cfg.robot, q)
+
+    def _on_heights(self, msg: PointCloud2) -> None:
+        self._heights = read_heights(msg)
+
+    def _on_cancel(self, _req: Trigger.Request, resp: Trigger.Response) -> Trigger.Response:
+        if self.nav.cancel():
+            self._stop()
+        resp.success, resp.message = True, "cancelled; the robot stands"
+        self._publish_status()
+        return resp
+
+    def _stop(self) -> None:
+        self._cmd.publish(Twist())
+
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        if self.nav.state is not NavState.ACTIVE:
+            return
+        if self._pose is None or time.monotonic() - self._pose_at > self.odom_timeout:
+            if self.nav.reason != "waiting for odometry":
+                self._stop()
+                self.nav.reason = "waiting for odometry"
+                self._publish_status()
+            return
+        info = msg.info
+        try:
+            view = view_from_grid((info.origin.position.x, info.origin.position.y),
+                                  info.resolution, info.width, info.height,
+                                  np.asarray(msg.data, dtype=np.int8), self._heights)
+        except CommandError as exc:
+            self.get_logger().warning(str(exc), throttle_duration_sec=1.0)
+            return
+        self.nav.reason = ""
+        out = self.nav.step(self._pose, self.radius, view, time.monotonic())
+        if out.twist is not None:
+            self._cmd.publish(Twist(linear=_vec(out.twist[0], out.twist[1]),
+                                    angular=_vec(0.0, 0.0, out.twist[2])))
+        self._publish_status()
+
+    def _publish_status(self, force: bool = False) -> None:
+        status = {**self.nav.status(), "radius": round(self.radius, 4),
+                  "refusals": self.refusals, "last_refusal": self.last_refusal}
+        text = json.dumps(status)
+        if force or text != self._last_status:
+            self._last_status = text
+            self._status.publish(String(data=text))
+
+
+def _vec(x: float, y: float, z: float = 0.0) -> Vector3:
+    return Vector3(x=float(x), y=float(y), z=float(z))
+
+
+def main(args: Sequence[str] | None = None) -> None:
+    """Console script ``navigator``: run until Ctrl-C; a bad parameter prints one line and
+    exits 1."""
+    run_node(NavigatorNode, f"{NAME}: error", args)
+
+
+if __name__ == "__main__":
+    main()

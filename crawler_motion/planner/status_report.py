@@ -1,0 +1,39 @@
+"""The planner's ``planner_status`` object (the JSON the node publishes), built from the core."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from crawler_motion.planner.state import MOVING
+
+if TYPE_CHECKING:
+    from crawler_motion.planner.core import PlannerCore
+
+
+def planner_status(core: PlannerCore, late_ticks: int, stand_height: float) -> dict[str, Any]:
+    """State, gait, profile, step k of N (k full gait cycles done), pause, resume in progress,
+    the driver's last reported state, last refusal, ``late_ticks`` and the ``stand_height``
+    [m] of the core."""
+    ctx, walk, journal = core.ctx, core.walk, core.ctx.journal
+    params = walk.params if walk.params is not None else core.defaults
+    return {
+        "state": ctx.state,
+        "target": core.moves.target if ctx.state == MOVING else None,
+        "gait": params.gait,
+        "profile": params.profile,
+        "step": walk.steady_done // walk.groups,
+        "steps": walk.steps_total,
+        "source": walk.source,
+        "phase": walk.seq.phase if walk.seq is not None else None,
+        "paused": ctx.paused,
+        "pause_reason": ctx.pause_reason or None,
+        "body_height": stand_height,
+        "last_refusal": journal.last_refusal,
+        "refusals": journal.refusals,
+        "last_event": journal.last_event,
+        "late_ticks": late_ticks,
+        "resuming": core.resumer.active,
+        "driver": core.driver.report.state if core.driver.report else None,
+        "revision": journal.revision,
+        "stamp": journal.stamp,
+    }

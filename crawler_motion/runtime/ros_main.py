@@ -1,0 +1,51 @@
+"""The console-script `main` of every node: spin until Ctrl-C or shutdown (demo_nodes_py)."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Sequence
+
+import rclpy
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from crawler_motion.errors import CrawlerMotionError
+
+#: Errors of a node's construction that mean "bad parameters or files": one line, exit 1.
+STARTUP_ERRORS: tuple[type[Exception], ...] = (CrawlerMotionError, ParameterException)
+
+
+def run_node(make_node: Callable[[], Node], prefix: str, args: Sequence[str] | None = None,
+             *, switch_interval: float | None = None) -> None:
+    """Create the node with ``make_node`` and spin it until Ctrl-C or an external shutdown.
+
+    A start-up error (`STARTUP_ERRORS`) prints ``<prefix>: <error>`` on stderr as one line and
+    exits with status 1 after the node is destroyed. ``switch_interval`` [s]: the GIL switch
+    interval for nodes whose real-time thread must not wait 5 ms for the executor.
+    """
+    if switch_interval is not None:
+        sys.setswitchinterval(switch_interval)
+    rclpy.init(args=None if args is None else list(args))
+    node = None
+    failed = ""
+    try:
+        node = make_node()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except RuntimeError:
+        # a signal shuts the context down while the executor takes a message: rclpy raises
+        # RuntimeError ("Unable to convert call argument '0' to Python object") from
+        # take_message instead of ExternalShutdownException; a shutdown, not a failure
+        if rclpy.ok():
+            raise
+    except STARTUP_ERRORS as exc:
+        failed = f"{prefix}: {exc}"
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    if failed:
+        print(failed, file=sys.stderr)
+        sys.exit(1)

@@ -1,0 +1,155 @@
+"""``crawler-motion calibrate poses|identify|simulate|report``: leg kinematic calibration.
+
+Every failure is one line on stderr and exit status 1; nothing is written then.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+import numpy as np
+
+from crawler_motion.calibration import csvio, report, study, synthetic
+from crawler_motion.calibration.identify import Method
+from crawler_motion.calibration.jacobian import leg_feet
+from crawler_motion.errors import CrawlerMotionError
+from crawler_motion.model.calibration_file import (
+    LegCalibration,
+    load_calibration,
+    nominal_calibration,
+    with_calibration,
+    write_calibration,
+)
+from crawler_motion.model.config import RobotConfig, load_config
+from crawler_motion.runtime.cli_args import OneLineParser, finite_number, positive_int
+
+PROG = "crawler-motion calibrate"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``calibrate`` argument parser and its three subcommands."""
+    parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default=None, help="robot.yaml (default: the shipped one)")
+    sub = parser.add_subparsers(dest="action", required=True)
+    poses = sub.add_parser("poses", help="optimised excitation poses, CSV on stdout")
+    poses.add_argument("--leg", required=True)
+    poses.add_argument("--candidates", type=positive_int, default=200)
+    poses.add_argument("--count", type=positive_int, default=50)
+    poses.add_argument("--seed", type=int, default=0)
+    poses.add_argument("--harmonics", type=positive_int, default=5)
+    poses.add_argument("--calibration", default=None,
+                       help="the leg's current calibration YAML (default: robot.yaml's)")
+    ident = sub.add_parser("identify", help="identify a leg from measured feet")
+    ident.add_argument("--leg", required=True)
+    ident.add_argument("--poses", required=True, help="CSV q_root,q_shoulder,q_knee [rad]")
+    ident.add_argument("--measured", required=True, help="CSV x,y,z [m] in base_link")
+    ident.add_argument("--method", choices=[m.value for m in Method], default="rls-de")
+    ident.add_argument("--out", required=True, help="calibration YAML (merged if it exists)")
+    ident.add_argument("--seed", type=int, default=0)
+    ident.add_argument("--calibration", default=None, help="the current calibration YAML: "
+                       "the starting geometry and the 'before' column (default: robot.yaml's)")
+    sim = sub.add_parser("simulate", help="tracker readings of a 'true' robot, CSV on stdout")
+    sim.add_argument("--leg", required=True)
+    sim.add_argument("--poses", required=True, help="CSV q_root,q_shoulder,q_knee [rad]")
+    sim.add_argument("--true", default=None, help="the true robot's calibration YAML")
+    sim.add_argument("--perturb-seed", type=int, default=None,
+                     help="instead of --true: random assembly errors with this seed")
+    sim.add_argument("--write-true", default=None, help="write the perturbed robot's YAML")
+    sim.add_argument("--noise", type=finite_number("--noise", nonneg=True), default=0.0,
+                     help="tracker noise per axis [m] (default 0)")
+    sim.add_argument("--seed", type=int, default=0)
+    rep = sub.add_parser("report", help="the study's comparison on simulated legs, per leg")
+    rep.add_argument("--perturb-seed", type=int, default=1, help="the true legs' errors")
+    rep.add_argument("--noise", type=finite_number("--noise", nonneg=True), action="append",
+                     help="tracker noise per axis [m]; repeat (default: 0 and 2e-5)")
+    rep.add_argument("--seed", type=int, default=0)
+    return parser
+
+
+def _poses(robot: RobotConfig, path: str) -> np.ndarray:
+    poses = csvio.read_rows(path, csvio.POSE_HEADER)
+    study.check_poses(robot, poses, path)
+    return poses
+
+
+def cmd_poses(args: argparse.Namespace, robot: RobotConfig) -> int:
+    """Print the selected poses; the condition numbers on stderr."""
+    leg = study.leg_index(robot, args.leg)
+    if args.count > args.candidates:
+        raise CrawlerMotionError(f"--count {args.count} exceeds --candidates {args.candidates}")
+    sel = study.select_poses(robot, leg, args.candidates, args.count, args.seed, args.harmonics)
+    sys.stdout.write(csvio.format_rows(sel.poses, csvio.POSE_HEADER))
+    print(f"{PROG} poses: condition number {sel.condition:.2f} of the {args.count} selected "
+          f"poses; median of 101 random {args.count}-of-{args.candidates} selections "
+          f"{sel.random_median:.2f}", file=sys.stderr)
+    return 0
+
+
+def cmd_identify(args: argparse.Namespace, robot: RobotConfig) -> int:
+    """Identify, print the table, write the selected method's parameters into ``--out``."""
+    leg = study.leg_index(robot, args.leg)
+    poses = _poses(robot, args.poses)
+    measured = csvio.read_rows(args.measured, csvio.FOOT_HEADER)
+    existing = _existing(args.out, robot)
+    comp = study.compare(robot, leg, poses, measured, args.seed)
+    calib = existing.with_leg(args.leg, comp.fits[args.method].params)
+    print(comp.identifiability.describe())
+    print(study.format_table(comp))
+    write_calibration(args.out, calib)
+    print(f"{PROG} identify: leg {args.leg} ({args.method}) written to {args.out}",
+          file=sys.stderr)
+    return 0
+
+
+def _existing(path: str, robot: RobotConfig) -> LegCalibration:
+    from pathlib import Path
+
+    links = (robot.l1, robot.l2, robot.l3)
+    if Path(path).exists():
+        return load_calibration(path, robot.legs, links)
+    return robot.geometry or nominal_calibration(robot.legs, links)
+
+
+def cmd_simulate(args: argparse.Namespace, robot: RobotConfig) -> int:
+    """Print the true robot's feet at the poses, with tracker noise."""
+    leg = study.leg_index(robot, args.leg)
+    if (args.true is None) == (args.perturb_seed is None):
+        raise CrawlerMotionError("give exactly one of --true FILE and --perturb-seed N")
+    poses = _poses(robot, args.poses)
+    true = (with_calibration(robot, args.true) if args.true is not None
+            else synthetic.perturbed_robot(robot, args.perturb_seed))
+    assert true.geometry is not None
+    feet = leg_feet(robot, leg, true.geometry.params[leg], poses)
+    feet = synthetic.measure(feet, args.noise, np.random.default_rng(args.seed))
+    if args.write_true is not None:
+        write_calibration(args.write_true, true.geometry)
+    sys.stdout.write(csvio.format_rows(feet, csvio.FOOT_HEADER))
+    return 0
+
+
+def cmd_report(args: argparse.Namespace, robot: RobotConfig) -> int:
+    """Print the comparison tables of every leg at every tracker noise."""
+    true = synthetic.perturbed_robot(robot, args.perturb_seed)
+    assert true.geometry is not None
+    for leg in range(robot.n_legs):
+        sel = None
+        for noise in args.noise or (0.0, 2e-5):
+            rep = report.leg_report(robot, leg, true.geometry.params[leg], noise, args.seed, sel)
+            sel = rep.selection
+            print(report.format_report(rep) + "\n")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        robot = with_calibration(load_config(args.config).robot,
+                                 getattr(args, "calibration", None))
+        return {"poses": cmd_poses, "identify": cmd_identify,
+                "simulate": cmd_simulate, "report": cmd_report}[args.action](args, robot)
+    except (CrawlerMotionError, OSError) as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 1

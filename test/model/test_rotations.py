@@ -1,0 +1,60 @@
+"""Tests of crawler_motion.model.rotations: roll-pitch-yaw and quaternion matrices."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from crawler_motion.model.rotations import quaternion_matrix, roll_pitch, rpy_matrix, yaw_of
+
+
+def _rx(a: float) -> np.ndarray:
+    return np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+
+
+def _ry(a: float) -> np.ndarray:
+    return np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])
+
+
+def _rz(a: float) -> np.ndarray:
+    return np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+
+
+@pytest.mark.parametrize(("rpy", "x_axis"), [
+    ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)),
+    ((0.0, math.pi / 2, 0.0), (0.0, 0.0, -1.0)),  # pitch +90°: x points down (REP-103)
+    ((0.0, 0.0, math.pi / 2), (0.0, 1.0, 0.0)),  # yaw +90°: x points left
+    ((math.pi / 2, 0.0, 0.0), (1.0, 0.0, 0.0)),  # roll leaves x alone
+])
+def test_rpy_matrix_moves_the_x_axis_as_rep103_says(rpy: tuple, x_axis: tuple) -> None:
+    np.testing.assert_allclose(rpy_matrix(np.array(rpy)) @ [1.0, 0.0, 0.0], x_axis, atol=1e-15)
+
+
+angles = st.floats(-3.0, 3.0)
+
+
+@given(angles, st.floats(-1.5, 1.5), angles)
+def test_rpy_is_fixed_axis_roll_then_pitch_then_yaw(roll: float, pitch: float, yaw: float
+                                                     ) -> None:
+    r = rpy_matrix(np.array([roll, pitch, yaw]))
+    np.testing.assert_allclose(r, _rz(yaw) @ _ry(pitch) @ _rx(roll), atol=1e-12)
+    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
+    assert roll_pitch(r) == pytest.approx((roll, pitch), abs=1e-9)
+    assert yaw_of(r) == pytest.approx(yaw, abs=1e-9)
+
+
+@given(st.floats(-3.0, 3.0), st.floats(0.1, 10.0))
+def test_quaternion_of_a_yaw_equals_the_yaw_matrix(yaw: float, scale: float) -> None:
+    q = scale * np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])  # normalised first
+    np.testing.assert_allclose(quaternion_matrix(q), _rz(yaw), atol=1e-12)
+
+
+@pytest.mark.parametrize("q", [(0.0, 0.0, 0.0, 0.0), (1e-12, 0.0, 0.0, 0.0),
+                               (math.nan, 0.0, 0.0, 1.0)])
+def test_a_quaternion_without_direction_is_refused(q: tuple) -> None:
+    with pytest.raises(ValueError, match="no direction"):
+        quaternion_matrix(np.array(q))
