@@ -92,6 +92,15 @@ def describe(status: dict[str, Any]) -> str:
     return text
 
 
+def json_object(text: str) -> dict[str, Any] | None:
+    """The JSON object of a status message's text; None when it is not one."""
+    try:
+        value = json.loads(text)
+    except ValueError:
+        return None
+    return value if isinstance(value, dict) else None
+
+
 class Console:
     """A small rclpy node that talks to the planner (`main` makes one per run; tests too).
 
@@ -118,11 +127,8 @@ class Console:
         self._last_line = ""
 
     def _on_status(self, msg: Any) -> None:
-        try:
-            status = json.loads(msg.data)
-        except ValueError:
-            return
-        if isinstance(status, dict):
+        status = json_object(msg.data)
+        if status is not None:
             self.status = status
             line = describe(status)
             if line != self._last_line:
@@ -214,6 +220,33 @@ class Console:
         self.node.destroy_node()
 
 
+def outcome(ok: bool, message: str, prog: str = PROG) -> int:
+    """Print ``<prog>: done|error: <message>`` (stdout or stderr) and return the exit status."""
+    print(f"{prog}: {'done' if ok else 'error'}: {message}",
+          file=sys.stdout if ok else sys.stderr)
+    return 0 if ok else 1
+
+
+def run_session(make: Callable[[], Any], body: Callable[[Any], int], quiet: bool) -> int:
+    """``rclpy`` up, ``make()`` a console object (with ``printer`` and ``close``), run
+    ``body(console)`` and return its exit status; 130 on Ctrl-C; everything shut down after."""
+    import rclpy
+
+    rclpy.init()
+    console = None
+    try:
+        console = make()
+        if quiet:
+            console.printer = lambda _line: None
+        return body(console)
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        if console is not None:
+            console.close()
+        rclpy.try_shutdown()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``crawler-motion console``; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -234,41 +267,29 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         return run(args.action, getattr(args, "x", 0.0), getattr(args, "y", 0.0),
                    getattr(args, "frame", "odom"), args.timeout, args.quiet)
-    import rclpy
+    return run_session(Console, lambda console: _act(console, args, command), args.quiet)
 
-    rclpy.init()
-    console: Console | None = None
-    try:
-        console = Console()
-        if args.quiet:
-            console.printer = lambda _line: None
-        if not console.connect(min(args.timeout, 10.0)):
-            print(f"{PROG}: error: no planner answering on planner_status/gait_command",
-                  file=sys.stderr)
-            return 1
-        if args.action in ("status", "recover"):
-            from crawler_motion.tools.recover import run_driver_action
 
-            return run_driver_action(console, args.action, args, PROG)
-        if args.action == "twist":
-            period = 1.0 / args.rate
-            end = time.monotonic() + args.duration
-            while time.monotonic() < end:
-                console.twist(args.vx, args.vy, args.wz)
-                console.spin_for(period)
-            console.twist(0.0, 0.0, 0.0)
-            ok = console.wait_until(lambda: (console.status or {}).get("state") in (
-                "STANDING", "IDLE", "ESTOP"), args.timeout)
-            print(f"{PROG}: {'done' if ok else 'timed out'}: {describe(console.status or {})}")
-            return 0 if ok else 1
-        assert command is not None
-        ok, message = console.run(command, args.timeout)
-        print(f"{PROG}: {'done' if ok else 'error'}: {message}",
-              file=sys.stdout if ok else sys.stderr)
+def _act(console: Console, args: argparse.Namespace, command: dict[str, Any] | None) -> int:
+    """One console action on a connected planner; the exit status."""
+    if not console.connect(min(args.timeout, 10.0)):
+        print(f"{PROG}: error: no planner answering on planner_status/gait_command",
+              file=sys.stderr)
+        return 1
+    if args.action in ("status", "recover"):
+        from crawler_motion.tools.recover import run_driver_action
+
+        return run_driver_action(console, args.action, args, PROG)
+    if args.action == "twist":
+        period = 1.0 / args.rate
+        end = time.monotonic() + args.duration
+        while time.monotonic() < end:
+            console.twist(args.vx, args.vy, args.wz)
+            console.spin_for(period)
+        console.twist(0.0, 0.0, 0.0)
+        ok = console.wait_until(lambda: (console.status or {}).get("state") in (
+            "STANDING", "IDLE", "ESTOP"), args.timeout)
+        print(f"{PROG}: {'done' if ok else 'timed out'}: {describe(console.status or {})}")
         return 0 if ok else 1
-    except KeyboardInterrupt:
-        return 130
-    finally:
-        if console is not None:
-            console.close()
-        rclpy.try_shutdown()
+    assert command is not None
+    return outcome(*console.run(command, args.timeout))

@@ -9,12 +9,10 @@ calls ``navigator/cancel``.
 from __future__ import annotations
 
 import json
-import sys
 import time
 from collections.abc import Callable
 from typing import Any
 
-PROG = "crawler-motion console"
 #: States that end a goal.
 FINAL_STATES = ("ARRIVED", "FAILED")
 
@@ -114,22 +112,10 @@ class GoalConsole:
 
 def run(action: str, x: float, y: float, frame: str, timeout: float, quiet: bool) -> int:
     """The ``goto`` / ``cancel`` action of the console; the exit status."""
-    import rclpy
+    from crawler_motion.tools.console import outcome, run_session
 
-    rclpy.init()
-    console = None
-    try:
-        console = GoalConsole()
-        if quiet:
-            console.printer = lambda _line: None
-        ok, message = (console.goto(x, y, frame, timeout) if action == "goto"
-                       else console.cancel(min(timeout, 10.0)))
-        print(f"{PROG}: {'done' if ok else 'error'}: {message}",
-              file=sys.stdout if ok else sys.stderr)
-        return 0 if ok else 1
-    except KeyboardInterrupt:
-        return 130
-    finally:
-        if console is not None:
-            console.close()
-        rclpy.try_shutdown()
+    def act(console: GoalConsole) -> int:
+        return outcome(*(console.goto(x, y, frame, timeout) if action == "goto"
+                         else console.cancel(min(timeout, 10.0))))
+
+    return run_session(GoalConsole, act, quiet)

@@ -10,11 +10,10 @@ pressed). Nothing moves: the operator sends ``stand`` afterwards.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from typing import Any
 
-from crawler_motion.tools.console import Console
+from crawler_motion.tools.console import Console, json_object
 
 #: Driver diagnostics that reset / enable cannot cure, as (text in the message, what to do).
 PERSISTENT_CAUSES: tuple[tuple[str, str], ...] = (
@@ -56,11 +55,8 @@ class DriverState:
         console.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, 10)
 
     def _on_status(self, msg: Any) -> None:
-        try:
-            status = json.loads(msg.data)
-        except ValueError:
-            return
-        if isinstance(status, dict):
+        status = json_object(msg.data)
+        if status is not None:
             self.status = status
 
     def _on_diag(self, msg: Any) -> None:

@@ -4,6 +4,7 @@ processes; the console stands the robot up and `goto` walks it to a goal 0.3 m a
 from __future__ import annotations
 
 import random
+import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -71,6 +72,16 @@ def test_goto_walks_the_simulated_robot_to_the_goal(tmp_path: Path, ros_domain: 
         assert not ok and "frame" in message
         console.spin_for(1.0)
         assert (console.status or {}).get("state") == "STANDING"
+        ok, message = goals.goto(1.0, 0.0, "odom", 1.5)  # walks off; times out, cancels
+        assert not ok and "goal cancelled" in message
+        assert goals.spin_until(lambda: (goals.status or {}).get("state") == "IDLE", 5.0)
+        assert (goals.status or {}).get("reason") == "cancelled"
+        assert console.wait_until(  # the navigator's zero twist stops the walk into standing
+            lambda: (console.status or {}).get("state") == "STANDING", 15.0), console.status
+        cli = subprocess.run([*script("crawler-motion"), "console", "--timeout", "10", "cancel"],
+                             env=isolated_env(ros_domain), capture_output=True, text=True,
+                             timeout=60)
+        assert cli.returncode == 0 and "done: cancelled" in cli.stdout, cli.stderr
     finally:
         goals.close()
         console.close()
