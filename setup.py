@@ -30,9 +30,13 @@ setup(
         "mujoco>=3",
         "Pillow",
         "PyOpenGL",
+        # recordings (ROS 2 MCAP), the live view in Foxglove
+        "mcap>=1.2",
+        "mcap-ros2-support>=0.5",
+        "foxglove-sdk>=0.30",
     ],
     extras_require={
-        "test": ["pytest>=7", "hypothesis>=6.80", "ruff>=0.5"],
+        "test": ["pytest>=7", "hypothesis>=6.80", "ruff>=0.5", "websockets>=12"],
         # `crawler-motion tune-smooth` only
         "tune": ["scipy>=1.10"],
     },
@@ -51,6 +55,7 @@ setup(
             "seabed_sim = crawler_motion.sim.seabed.node:main",
             "terrain_mapper = crawler_motion.mapping.node:main",
             "navigator = crawler_motion.navigation.node:main",
+            "recorder = crawler_motion.recording.recorder:node_main",
         ],
     },
 )

@@ -5,7 +5,8 @@ catch one type. Messages say what was wrong and what would be right.
 
     CrawlerMotionError
     ├── ConfigError            invalid configuration file or parameter value
-    │   └── CalibrationError   unreadable or implausible leg calibration (path, key)
+    │   ├── CalibrationError   unreadable or implausible leg calibration (path, key)
+    │   └── MapFileError       unreadable or inconsistent map_server map (path)
     ├── KinematicsError
     │   ├── UnreachableError   foot target outside the leg's workspace
     │   └── JointLimitError    joint angle outside its configured limits
@@ -13,6 +14,7 @@ catch one type. Messages say what was wrong and what would be right.
     ├── GaitError              a walk that cannot be planned or executed
     ├── CommandError           a malformed or out-of-range operator command
     ├── BusOpenError           a CAN bus that cannot be opened (interface, channel, port)
+    ├── RecordingError         a recording that cannot be written or read (path)
     └── ProtocolError          CAN protocol error (argument errors raise the base)
         ├── ProtocolParseError   unreadable or inconsistent DBC / axis-map file
         │                        (path, key, line)
@@ -46,6 +48,15 @@ class CalibrationError(ConfigError):
         super().__init__(message)
         self.path = None if path is None else Path(path)
         self.key = key
+
+
+class MapFileError(ConfigError):
+    """A map_server map (YAML + image) is missing, malformed or inconsistent; ``path``: the
+    file concerned."""
+
+    def __init__(self, message: str, *, path: str | Path) -> None:
+        super().__init__(message)
+        self.path = Path(path)
 
 
 class KinematicsError(CrawlerMotionError, ValueError):
@@ -129,3 +140,11 @@ class ProtocolEncodeError(FrameError):
 
 class ProtocolDecodeError(FrameError):
     """A received frame is not a valid frame of the protocol."""
+
+
+class RecordingError(CrawlerMotionError, OSError):
+    """A run recording (MCAP or CAN log) cannot be written or read: ``path`` is the file."""
+
+    def __init__(self, message: str, *, path: str | Path) -> None:
+        super().__init__(message)
+        self.path = Path(path)

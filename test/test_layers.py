@@ -12,12 +12,13 @@ PACKAGE = Path(__file__).resolve().parents[1] / "crawler_motion"
 #: Lowest layer first; a subpackage may import itself and any subpackage listed before it.
 LAYERS: tuple[str, ...] = ("errors", "model", "motion", "calibration", "canbus", "runtime",
                            "planner", "driver", "mapping", "navigation", "sim", "testing",
-                           "tools")
+                           "recording", "tools")
 #: Modules that may import rclpy / ROS message packages: the nodes, their ROS helpers, and
 #: the tools and test stack on top; the pure core (everything else) never does.
 ROS_MODULES = {"planner/node.py", "driver/node.py", "driver/rclpy_workarounds.py",
                "runtime/ros_parameters.py", "runtime/ros_main.py", "sim/seabed/node.py",
-               "mapping/node.py", "navigation/node.py"}
+               "mapping/node.py", "navigation/node.py", "recording/recorder.py",
+               "recording/view.py"}
 ROS_LAYERS = {"testing", "tools"}
 ROS_ROOTS = {"rclpy", "std_msgs", "sensor_msgs", "geometry_msgs", "nav_msgs",
              "diagnostic_msgs", "lifecycle_msgs", "rcl_interfaces", "std_srvs"}

@@ -3,8 +3,8 @@
 States (`NavState`): ``IDLE`` (no goal) -> ``ACTIVE`` (a goal) -> ``ARRIVED`` (within
 ``goal_tolerance``) or ``FAILED`` (with a reason: the goal lies inside an obstacle, no heading
 clears the obstacles, the time ran out). Leaving ``ACTIVE`` asks for a stop (a zero twist; the
-planner then stands). Methods are a registry (`Method`, `METHODS`) so another method can be
-added next to ``virtual_body``.
+planner then stands). The methods' registry is `methods.METHODS`; this module holds the shared
+types and the ``virtual_body`` method.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ class Method(Enum):
     """Obstacle-avoidance methods of the navigator."""
 
     VIRTUAL_BODY = "virtual_body"
+    APF = "apf"
 
 
 @dataclass(frozen=True)
@@ -58,6 +59,8 @@ class NavigatorSettings:
     lookahead: float = 0.6  # [m]
     max_turn: float = math.radians(100.0)  # [rad]
     timeout: float = 300.0  # [s]
+    standoff: float = 0.10  # apf: ρ_o, repulsion range and stand-off distance [m]
+    path_lookahead: float = 0.25  # apf: steer to the path point this far along it [m]
 
 
 @dataclass(frozen=True)
@@ -166,6 +169,3 @@ class VirtualBodyNavigator:
         cmd = twist(s.steering, self.heading - yaw, speed, s.lever, s.max_yaw_rate)
         return Output(twist=cmd, decision=decision, heading=self.heading)
 
-
-#: The navigator class of each method.
-METHODS: dict[Method, type[VirtualBodyNavigator]] = {Method.VIRTUAL_BODY: VirtualBodyNavigator}

@@ -2,8 +2,10 @@
 
 Subscribes ``goal_pose`` (geometry_msgs/PoseStamped in the map frame), ``terrain_map``
 (nav_msgs/OccupancyGrid) and ``terrain_heights`` (sensor_msgs/PointCloud2 x y z variance) of
-``terrain_mapper``, ``odom`` and ``joint_states``; serves ``~/cancel`` (std_srvs/Trigger).
-On every map it runs one cycle of the method (parameter ``method``; `navigator.METHODS`) and
+``terrain_mapper``, ``odom``, ``joint_states`` and, for method ``apf``, ``follow_command``
+(std_msgs/String JSON ``{"length": L, "side": "right"|"left"}``: walk L m along the nearest
+structure at the stand-off distance); serves ``~/cancel`` (std_srvs/Trigger).
+On every map it runs one cycle of the method (parameter ``method``; `methods.METHODS`) and
 publishes the twist on ``cmd_vel``. Publishes ``navigation_status`` (std_msgs/String JSON,
 transient local) on every change and once a second. Leaving ACTIVE (arrived, failed,
 cancelled) sends a zero twist: the planner stops the walk into standing. A goal in another
@@ -31,8 +33,10 @@ from crawler_motion.errors import CommandError
 from crawler_motion.model.config import load_config
 from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.model.rotations import quaternion_matrix, yaw_of
+from crawler_motion.navigation.apf_navigator import ApfNavigator, FollowCommand
 from crawler_motion.navigation.body import envelope_radius, virtual_radius
-from crawler_motion.navigation.navigator import METHODS, Method, NavState
+from crawler_motion.navigation.methods import make_navigator
+from crawler_motion.navigation.navigator import Method, NavState
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
 from crawler_motion.navigation.view import view_from_grid
 from crawler_motion.runtime.ros_main import run_node
@@ -68,7 +72,7 @@ class NavigatorNode(Node):
         values = {s.name: self.get_parameter(s.name).value for s in NAVIGATOR_PARAMETERS}
         settings = navigator_settings(values)
         self.cfg = load_config(values["config_file"] or None)
-        self.nav = METHODS[Method(values["method"])](settings)
+        self.nav = make_navigator(Method(values["method"]), settings)
         self.frame, self.odom_timeout = values["map_frame"], values["odom_timeout"]
         self.radius = envelope_radius(self.cfg.robot)
         self.refusals, self.last_refusal = 0, ""
@@ -80,6 +84,7 @@ class NavigatorNode(Node):
         self._cmd = self.create_publisher(Twist, "cmd_vel", 10)
         self._status = self.create_publisher(String, "navigation_status", latched)
         self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
+        self.create_subscription(String, "follow_command", self._on_follow, 10)
         self.create_subscription(OccupancyGrid, "terrain_map", self._on_map, 2)
         self.create_subscription(PointCloud2, "terrain_heights", self._on_heights, 2)
         self.create_subscription(Odometry, "odom", self._on_odom, 20)
@@ -104,6 +109,19 @@ class NavigatorNode(Node):
             self._refuse(str(exc))
             return
         self.get_logger().info(f"goal ({msg.pose.position.x:.3f}, {msg.pose.position.y:.3f})")
+        self._publish_status()
+
+    def _on_follow(self, msg: String) -> None:
+        if not isinstance(self.nav, ApfNavigator):
+            self._refuse("following a structure needs method apf")
+            return
+        try:
+            command = FollowCommand.from_json(msg.data)
+        except CommandError as exc:
+            self._refuse(str(exc))
+            return
+        self.nav.set_follow(command, time.monotonic())
+        self.get_logger().info(f"follow {command.length:.3f} m, structure {command.side.value}")
         self._publish_status()
 
     def _on_odom(self, msg: Odometry) -> None:

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from crawler_motion.errors import ConfigError
+from crawler_motion.navigation.methods import METHODS
 from crawler_motion.navigation.navigator import Method, NavigatorSettings
 from crawler_motion.navigation.steering import Steering
 from crawler_motion.runtime.parameters import ParamSpec, not_empty, validate_parameters
@@ -14,8 +15,10 @@ from crawler_motion.runtime.parameters import ParamSpec, not_empty, validate_par
 NAVIGATOR_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("config_file", "", "robot.yaml (leg geometry for the virtual body; default: the "
               "shipped one)", read_only=True),
-    ParamSpec("method", Method.VIRTUAL_BODY.value, "obstacle-avoidance method",
-              read_only=True, choices=tuple(m.value for m in Method)),
+    ParamSpec("method", Method.VIRTUAL_BODY.value, "obstacle-avoidance method: virtual_body "
+              "(heading rules) or apf (improved potential field, re-planned on every map; "
+              "also follows a structure)", read_only=True,
+              choices=tuple(m.value for m in METHODS)),
     ParamSpec("steering", Steering.CRAB.value, "crab: walk along the heading without "
               "turning; turn: turn towards it on the radius law", read_only=True,
               choices=tuple(s.value for s in Steering)),
@@ -40,6 +43,10 @@ NAVIGATOR_PARAMETERS: tuple[ParamSpec, ...] = (
               maximum=180.0, unit="deg"),
     ParamSpec("timeout", 300.0, "FAILED when not arrived this long after the goal [s]",
               read_only=True, minimum=1.0, maximum=86400.0, unit="s"),
+    ParamSpec("standoff", 0.10, "apf: ρ_o, repulsion range and stand-off distance from a "
+              "followed structure [m]", read_only=True, minimum=0.01, maximum=1.0, unit="m"),
+    ParamSpec("path_lookahead", 0.25, "apf: steer towards the point of the path this far "
+              "along it [m]", read_only=True, minimum=0.02, maximum=2.0, unit="m"),
     ParamSpec("odom_timeout", 0.5, "no walking on odometry or a map older than this [s]",
               read_only=True, minimum=0.05, maximum=10.0, unit="s"),
 )
@@ -55,4 +62,5 @@ def navigator_settings(values: Mapping[str, Any]) -> NavigatorSettings:
         steering=Steering(v["steering"]), speed=v["speed"], lever=v["lever"],
         max_yaw_rate=v["max_yaw_rate"], goal_tolerance=v["goal_tolerance"],
         slow_radius=v["slow_radius"], margin=v["margin"], lookahead=v["lookahead"],
-        max_turn=math.radians(v["max_turn"]), timeout=v["timeout"])
+        max_turn=math.radians(v["max_turn"]), timeout=v["timeout"], standoff=v["standoff"],
+        path_lookahead=v["path_lookahead"])

@@ -23,12 +23,8 @@ from crawler_motion.mapping.points import Mount
 from crawler_motion.model.config import Config, load_scanner
 from crawler_motion.model.rotations import quaternion_matrix, yaw_of
 from crawler_motion.navigation.body import virtual_radius
-from crawler_motion.navigation.navigator import (
-    NavigatorSettings,
-    NavState,
-    TerrainView,
-    VirtualBodyNavigator,
-)
+from crawler_motion.navigation.methods import make_navigator
+from crawler_motion.navigation.navigator import Method, NavigatorSettings, NavState, TerrainView
 from crawler_motion.planner.core import PlannerCore
 from crawler_motion.sim.seabed.contacts import body_contact
 from crawler_motion.sim.seabed.model import SeabedModel, SimSettings
@@ -57,6 +53,7 @@ class LoopResult:
     map_ms: list[float] = field(default_factory=list)
     nav_ms: list[float] = field(default_factory=list)
     refusals: list[str] = field(default_factory=list)
+    virtual_goals: int = 0  # distinct virtual goals the method used (apf)
     mapper: TerrainMapper | None = None
 
     @property
@@ -89,16 +86,19 @@ class AvoidanceLoop:
     """One robot in one world, walking to one goal."""
 
     def __init__(self, cfg: Config, world: str, nav: NavigatorSettings | None = None,
-                 mapper: MapperSettings | None = None, seed: int = 0) -> None:
+                 mapper: MapperSettings | None = None, seed: int = 0,
+                 method: Method = Method.VIRTUAL_BODY,
+                 start: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        """``start``: x, y [m], yaw [rad] of the body in the world."""
         self.cfg = cfg
-        self.sm = SeabedModel(cfg.robot, SimSettings(), world)
+        self.sm = SeabedModel(cfg.robot, SimSettings(start_pose=start), world)
         self.data = self.sm.make_data()
         self.sm.settle(self.data, 0.3)
         mount = load_scanner()
         self.scanner = RangeScanner(self.sm, mount, ScannerSettings(seed=seed))
         self.mapper = TerrainMapper(mapper or MapperSettings(),
                                     Mount.from_config(mount))
-        self.nav = VirtualBodyNavigator(nav or NavigatorSettings())
+        self.nav = make_navigator(method, nav or NavigatorSettings())
         self.core = PlannerCore(cfg, 1.0 / CONTROL_PERIOD)
         self.t = 0.0
         self.ticks = 0
@@ -175,3 +175,4 @@ class AvoidanceLoop:
         res.rule.append("" if self.nav.rule is None else self.nav.rule.value)
         res.radius.append(radius)
         res.clearance.append(circle_clearance(view, pose[0], pose[1], radius))
+        res.virtual_goals = self.nav.status().get("virtual_goals_used", 0)

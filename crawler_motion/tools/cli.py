@@ -184,6 +184,16 @@ _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("fk", "crawler_motion.tools.fk", "forward kinematics of one leg: CSV joints in, feet out"),
     ("map-plot", "crawler_motion.tools.map_plot",
      "walk around obstacles in the simulator: elevation map, path and heading plots"),
+    ("path", "crawler_motion.tools.apf_path",
+     "plan a path on a map_server map with the improved potential field"),
+    ("coverage", "crawler_motion.tools.apf_coverage",
+     "plan a coverage route of an area of a map_server map, slice by slice"),
+    ("record", "crawler_motion.recording.recorder",
+     "record the running stack to a ROS 2 MCAP file (and the CAN bus to a log)"),
+    ("report", "crawler_motion.recording.report",
+     "a recording as PNG plots and an index.html"),
+    ("view", "crawler_motion.recording.view",
+     "serve the running stack live to Foxglove (WebSocket)"),
 )
 
 

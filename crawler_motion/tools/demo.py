@@ -42,6 +42,8 @@ MOVING = ("WALKING", "STOPPING")
 SIMS = ("seabed", "joint")
 #: File prefix of the pictures in ``--out``; states kept per second for them [Hz].
 PICTURES = "demo_walk"
+#: File prefix of the run's recording (``.mcap``), CAN log (``.log``) and report directory.
+RECORDING = "demo_run"
 RECORD_FPS = 10.0
 #: Time the simulator gets to render its pictures after the run [s].
 PICTURE_TIMEOUT = 90.0
@@ -63,6 +65,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--medium", choices=("water", "land"), default="water")
     parser.add_argument("--out", type=Path, default=Path("plots"),
                         help="directory of the pictures (default plots)")
+    parser.add_argument("--record", action=argparse.BooleanOptionalAction, default=True,
+                        help="record the run (MCAP, CAN log) and its report into --out")
     args = parser.parse_args(argv)
     if not (np.isfinite(args.rate) and 1.0 <= args.rate <= 1000.0):
         parser.error(f"--rate must be in [1, 1000] Hz, got {args.rate}")
@@ -203,7 +207,7 @@ class Demo:
                  f"(logs in {self.procs.logs})")
         for old in self.pictures:
             old.unlink(missing_ok=True)
-        self.procs.start(self.spec.commands(), os.environ.copy())
+        self.procs.start({**self.recorder(), **self.spec.commands()}, os.environ.copy())
         self.tap = BusTap(self.bus.open(), [FamilyCounter(self.protocol)], timeout=0.1)
         console = self.console = Console("crawler_demo")
         console.printer = lambda line: self.say(f"planner: {line.split('] ', 1)[-1]}")
@@ -271,6 +275,27 @@ class Demo:
                 self.procs.tail(self.spec.names["seabed_sim"], 20) if "pictures" in line]
         print(f"  pictures              none: {said[-1] if said else 'see the seabed_sim log'}")
 
+    def recorder(self) -> dict[str, list[str]]:
+        """The recorder's command line (``--record``: all topics and the CAN bus)."""
+        from crawler_motion.recording.launch import record_command
+
+        out = self.args.out
+        if self.args.record:
+            out.mkdir(parents=True, exist_ok=True)
+        return {"recorder": record_command(out / f"{RECORDING}.mcap", self.bus,
+                                           out / f"{RECORDING}.log")} if self.args.record else {}
+
+    def write_report(self) -> None:
+        """Stop the recorder and write the recording's report into ``--out``."""
+        if not self.args.record:
+            return
+        from crawler_motion.recording.report import main as report
+
+        self.procs.stop(["recorder"])
+        out = self.args.out
+        print(f"  recording             {out / RECORDING}.mcap, CAN log {out / RECORDING}.log")
+        report([str(out / f"{RECORDING}.mcap"), "-o", str(out / f"{RECORDING}_report")])
+
     def report_failure(self, exc: Exception) -> None:
         """The error and the last lines of every log, on stderr."""
         print(f"{PROG}: error: {exc}", file=sys.stderr)
@@ -303,6 +328,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         demo.walk()
         demo.finish(tracker)
         demo.write_pictures()
+        demo.write_report()
         return 0
     except (RuntimeError, OSError, can.CanError) as exc:
         demo.report_failure(exc)

@@ -19,7 +19,7 @@ from itertools import pairwise
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from crawler_motion.errors import GaitError, KinematicsError
@@ -117,12 +117,16 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     legs, starts = join(slots)
     assert legs[0].t_end == pytest.approx(len(slots) * slot_time, rel=1e-12)
 
-    # Starts and ends exactly standing, at rest.
+    # Starts and ends exactly standing, at rest. A polynomial's rounding error in a derivative
+    # grows as 1/T^k with its segment's duration T: a 30 µs dwell gives 1e-7 m/s² of rounding
+    # at its end, so the bound uses the shortest segment.
+    shortest = min(float(np.diff(leg.breaks).min()) for leg in legs)
+    tol_a_end = TOL / min(slot_time, shortest) ** 2
     for t in (0.0, legs[0].t_end):
         pos, vel, acc = (x[0] for x in states(legs, np.array([t])))
         np.testing.assert_allclose(pos, stand, atol=1e-12)
         np.testing.assert_allclose(vel, 0.0, atol=tol_v)
-        np.testing.assert_allclose(acc, 0.0, atol=tol_a)
+        np.testing.assert_allclose(acc, 0.0, atol=tol_a_end)
 
     # C0, C1, C2 at every junction (slot boundaries, swing/dwell, B and D), from the
     # coefficients: at u = 1 (sum c_i, sum i c_i / T, ...) against u = 0 of the next segment.
@@ -439,6 +443,9 @@ def assert_refusal_is_genuine(p: WalkParams, steps: int, msg: str) -> None:
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(d=walks, steps=st.sampled_from([1, 2]))
+@example(d={"gait": "diagonal", "profile": "rest", "stride": 0.0, "heading": 0.0,  # 31 µs dwell
+            "turn": 0.25, "lift": 0.015625, "arc": 0.015625, "swing_time": 0.375,
+            "stance_factor": 1.0001674202749191, "body_height": 0.0625}, steps=1)
 def test_any_walk_within_the_limits(d, steps):
     p = make_params(d)
     slots, _ = check_walk(p, steps)

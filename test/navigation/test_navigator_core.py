@@ -12,8 +12,8 @@ from crawler_motion.model.config import load_config
 from crawler_motion.motion.gait import standing_pose
 from crawler_motion.navigation.body import envelope_radius, virtual_radius
 from crawler_motion.navigation.heading import Rule
+from crawler_motion.navigation.methods import METHODS
 from crawler_motion.navigation.navigator import (
-    METHODS,
     Method,
     NavigatorSettings,
     NavState,

@@ -1,0 +1,1 @@
+"""The improved potential field: field, virtual goals, paths, following, coverage (pure)."""
