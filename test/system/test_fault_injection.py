@@ -471,7 +471,9 @@ def test_garbage_frames_during_a_walk_are_dropped(make_stack: Callable[..., Stac
                    f"largest distance to a recent command {max(errors):.4f} rad")
     assert sum(sent_each) > 100 and dropped() == expected["driver"], text
     assert rejected == expected["manager"], text
-    assert len(errors) > 50 and max(errors) < 0.1, text  # garbage is >= 0.3 rad off
+    # Garbage taken would put a joint >= 0.3 rad off; a tracking transient of the simulated
+    # manager (2 rad/s) under a loaded CI machine once reached 0.11 rad at the walk's start.
+    assert len(errors) > 50 and max(errors) < 0.15, text
 
 
 def test_a_position_frame_repeating_its_counter_is_dropped(make_stack: Callable[..., Stack]
