@@ -3,9 +3,7 @@ processes; the console stands the robot up and `goto` walks it to a goal 0.3 m a
 
 from __future__ import annotations
 
-import random
 import subprocess
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -30,16 +28,6 @@ def script(name: str) -> list[str]:
     import sys
 
     return [str(Path(sys.executable).parent / name)]
-
-
-@pytest.fixture()
-def ros_domain() -> Iterator[int]:
-    domain = random.randint(102, 200)
-    rclpy.init(domain_id=domain)
-    try:
-        yield domain
-    finally:
-        rclpy.try_shutdown()
 
 
 def test_goto_walks_the_simulated_robot_to_the_goal(tmp_path: Path, ros_domain: int) -> None:

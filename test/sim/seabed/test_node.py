@@ -7,7 +7,6 @@ from __future__ import annotations
 import random
 import subprocess
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -68,16 +67,6 @@ class Recorder:
         node.create_subscription(Odometry, "odom", self.odom.append, 100)
         node.create_subscription(Imu, "imu", self.imu.append, 100)
         node.create_subscription(PointCloud2, "scan", self.scan.append, 10)
-
-
-@pytest.fixture()
-def ros_domain() -> Iterator[int]:
-    domain = random.randint(102, 200)
-    rclpy.init(domain_id=domain)
-    try:
-        yield domain
-    finally:
-        rclpy.try_shutdown()
 
 
 def _start(tmp_path: Path, spec: StackSpec, domain: int) -> StackProcesses:
