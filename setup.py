@@ -52,6 +52,7 @@ setup(
             "planner_node = crawler_motion.planner.node:main",
             "motor_manager_sim = crawler_motion.sim.manager_cli:main",
             "driver_node = crawler_motion.driver.node:main",
+            "controller_node = crawler_motion.controller.node:main",
             "seabed_sim = crawler_motion.sim.seabed.node:main",
             "terrain_mapper = crawler_motion.mapping.node:main",
             "navigator = crawler_motion.navigation.node:main",

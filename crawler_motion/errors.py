@@ -12,6 +12,7 @@ catch one type. Messages say what was wrong and what would be right.
     │   └── JointLimitError    joint angle outside its configured limits
     ├── TrajectoryError        inconsistent trajectory constraints
     ├── GaitError              a walk that cannot be planned or executed
+    │   └── PoseError          a body pose beyond its limits or a foot's workspace (field)
     ├── CommandError           a malformed or out-of-range operator command
     ├── BusOpenError           a CAN bus that cannot be opened (interface, channel, port)
     ├── RecordingError         a recording that cannot be written or read (path)
@@ -83,6 +84,17 @@ class TrajectoryError(CrawlerMotionError, ValueError):
 
 class GaitError(CrawlerMotionError, ValueError):
     """A walk cannot be planned, or would leave the workspace or the joint limits."""
+
+
+class PoseError(GaitError):
+    """A standing body pose (or the move to it) is beyond its limits or would take a foot out
+    of its workspace or joint limits. ``field``: the pose field out of its range (``x``, ``y``,
+    ``z``, ``roll``, ``pitch``, ``yaw``), None when the reason is a foot (the message names the
+    leg)."""
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        super().__init__(message)
+        self.field = field
 
 
 class CommandError(CrawlerMotionError, ValueError):

@@ -11,11 +11,14 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "crawler_motion"
 #: Lowest layer first; a subpackage may import itself and any subpackage listed before it.
 LAYERS: tuple[str, ...] = ("errors", "model", "motion", "calibration", "canbus", "runtime",
-                           "planner", "driver", "mapping", "navigation", "sim", "testing",
-                           "recording", "tools")
+                           "planner", "driver", "controller", "mapping", "navigation", "sim",
+                           "testing", "recording", "tools")
 #: Modules that may import rclpy / ROS message packages: the nodes, their ROS helpers, and
 #: the tools and test stack on top; the pure core (everything else) never does.
 ROS_MODULES = {"planner/node.py", "driver/node.py", "driver/rclpy_workarounds.py",
+               "planner/contact_topics.py",
+               "driver/messages.py", "driver/command_input.py", "controller/node.py",
+               "runtime/ros_reader.py",
                "runtime/ros_parameters.py", "runtime/ros_main.py", "sim/seabed/node.py",
                "mapping/node.py", "navigation/node.py", "recording/recorder.py",
                "recording/view.py"}

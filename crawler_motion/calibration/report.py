@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from crawler_motion.calibration import study, synthetic
+from crawler_motion.calibration.identify import RLS_MAX_PASSES
 from crawler_motion.calibration.jacobian import leg_feet
 from crawler_motion.model.config import RobotConfig
 
@@ -31,14 +32,16 @@ class LegReport:
 
 
 def leg_report(robot: RobotConfig, leg: int, true_params: np.ndarray, noise: float, seed: int,
-               selection: study.PoseSelection | None = None) -> LegReport:
+               selection: study.PoseSelection | None = None,
+               rls_passes: int = RLS_MAX_PASSES) -> LegReport:
     """Identify leg ``leg`` of ``robot`` (its current geometry is the start) from readings of
-    ``true_params`` at the selected poses with tracker ``noise`` [m] per axis; validate on
-    `VALIDATION_POSES` other poses (noise-free truth)."""
+    ``true_params`` at the selected poses with tracker ``noise`` [m] per axis (RLS with at
+    most ``rls_passes`` passes); validate on `VALIDATION_POSES` other poses (noise-free
+    truth, never used by the identification)."""
     sel = selection or study.select_poses(robot, leg, 200, 50, seed)
     rng = np.random.default_rng(seed)
     measured = synthetic.measure(leg_feet(robot, leg, true_params, sel.poses), noise, rng)
-    comp = study.compare(robot, leg, sel.poses, measured, seed)
+    comp = study.compare(robot, leg, sel.poses, measured, seed, rls_passes)
     poses = rng.uniform(robot.lower, robot.upper, (VALIDATION_POSES, 3))
     truth = leg_feet(robot, leg, true_params, poses)
     validation = {}

@@ -8,7 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from crawler_motion.calibration import excitation, selection
-from crawler_motion.calibration.identify import Fit, Method, Problem, de, rls_de
+from crawler_motion.calibration.identify import (
+    RLS_MAX_PASSES,
+    Fit,
+    Method,
+    Problem,
+    de,
+    rls_de,
+)
 from crawler_motion.calibration.jacobian import (
     Identifiability,
     condition_number,
@@ -83,9 +90,10 @@ class Comparison:
     fits: dict[str, Fit]
 
 
-def compare(robot: RobotConfig, leg: int, poses: np.ndarray, measured: np.ndarray, seed: int
-            ) -> Comparison:
-    """Identify leg ``leg`` by RLS, DE alone (the RLS-DE evaluation budget) and RLS-DE."""
+def compare(robot: RobotConfig, leg: int, poses: np.ndarray, measured: np.ndarray, seed: int,
+            rls_passes: int = RLS_MAX_PASSES) -> Comparison:
+    """Identify leg ``leg`` by RLS (at most ``rls_passes`` re-linearisations), DE alone (the
+    RLS-DE evaluation budget) and RLS-DE."""
     if len(poses) != len(measured):
         raise CalibrationError(f"{len(poses)} poses but {len(measured)} measured feet: one "
                                f"measurement per pose")
@@ -95,7 +103,8 @@ def compare(robot: RobotConfig, leg: int, poses: np.ndarray, measured: np.ndarra
         robot, leg, start, np.random.default_rng(0).uniform(robot.lower, robot.upper, (200, 3))))
     require_rank(jac[:, list(ident.columns)], len(poses), len(ident.columns))
     problem = Problem(robot, leg, poses, measured, start, ident.columns)
-    first, hybrid = rls_de(problem, POPULATION, GENERATIONS, np.random.default_rng(seed))
+    first, hybrid = rls_de(problem, POPULATION, GENERATIONS, np.random.default_rng(seed),
+                           rls_passes)
     budget = max(hybrid.evaluations // POPULATION - 1, 1)
     alone = de(problem, POPULATION, budget, np.random.default_rng(seed))
     before = problem.fit(start, 0, 1)

@@ -189,14 +189,14 @@ class JointSpace:
         return len(self.joint_names)
 
     def vector(self, values: Any, what: str,
-               error: type[ProtocolError] = ProtocolError) -> np.ndarray:
+               error: type[ProtocolError] = ProtocolError, unit: str = "rad") -> np.ndarray:
         """``values`` as a float vector of one value per joint/axis; ``error`` otherwise."""
         try:
             arr = np.asarray(values, dtype=float).reshape(-1)
         except (TypeError, ValueError) as exc:
-            raise error(f"{what} must be {self.n} numbers [rad]: {exc}") from None
+            raise error(f"{what} must be {self.n} numbers [{unit}]: {exc}") from None
         if arr.shape != (self.n,):
-            raise error(f"{what} must hold {self.n} values [rad], got {arr.size}")
+            raise error(f"{what} must hold {self.n} values [{unit}], got {arr.size}")
         return arr
 
     def to_axis(self, q: np.ndarray) -> np.ndarray:
@@ -208,6 +208,17 @@ class JointSpace:
     def to_joint(self, a: np.ndarray) -> np.ndarray:
         """Joint angles in joint order of axis positions in axis order [rad]."""
         return (a[self._axis_order] - self._offset) * self._direction + 0.0  # no -0.0
+
+    def effort_to_axis(self, tau: np.ndarray) -> np.ndarray:
+        """Axis efforts in axis order of joint torques in joint order [N m] (direction only:
+        a zero offset does not shift a torque)."""
+        out = np.empty(self.n)
+        out[self._axis_order] = self._direction * tau
+        return out
+
+    def effort_to_joint(self, e: np.ndarray) -> np.ndarray:
+        """Joint torques in joint order of axis efforts in axis order [N m]."""
+        return e[self._axis_order] * self._direction + 0.0  # no -0.0
 
     def within(self, i: int, value: float, margin: float) -> bool:
         """True when joint ``i`` at ``value`` [rad] is finite and within its limits widened by

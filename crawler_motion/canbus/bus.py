@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import ctypes
 import logging
+import socket
+import struct
 from collections.abc import Callable
 from typing import Any
 
@@ -52,21 +55,90 @@ def describe_bus(interface: str, channel: str, port: int = 0) -> str:
 
 
 def make_bus_factory(interface: str, channel: str, port: int = 0,
-                     bitrate: int | None = DEFAULT_BITRATE) -> Callable[[], can.BusABC]:
-    """A factory opening the bus anew on every call; python-can's errors pass through."""
+                     bitrate: int | None = DEFAULT_BITRATE, *,
+                     own_frames: bool = True) -> Callable[[], can.BusABC]:
+    """A factory opening the bus anew on every call; python-can's errors pass through.
+
+    ``own_frames=False``: a ``udp_multicast`` bus does not receive the frames it sends
+    (`drop_own_frames`), as a SocketCAN socket does not by default."""
     kwargs = bus_kwargs(interface, channel, port, bitrate)
 
     def factory() -> can.BusABC:
-        return can.Bus(**kwargs)
+        bus = can.Bus(**kwargs)
+        if not own_frames and interface == UDP_MULTICAST:
+            drop_own_frames(bus)
+        return bus
 
     return factory
 
 
-def open_bus(interface: str, channel: str, port: int = 0,
-             bitrate: int | None = None) -> can.BusABC:
-    """Open the bus once; a failure raises `BusOpenError` naming the bus (`describe_bus`)."""
+#: ``SO_ATTACH_FILTER`` of Linux (``socket`` does not export it).
+SO_ATTACH_FILTER = 26
+
+
+def drop_own_frames(bus: can.BusABC) -> bool:
+    """Make a python-can ``udp_multicast`` bus (IPv4) stop receiving its own frames; True if
+    done, False where it cannot be (another interface or python-can version, not Linux).
+
+    The kernel loops every multicast datagram back to each member socket, the sender's own
+    included, so python-can's ``udp_multicast`` receives what it sends (its
+    ``receive_own_messages=False`` is not enforced), unlike a SocketCAN socket
+    (``CAN_RAW_RECV_OWN_MSGS`` is off by default). Each sent frame then also costs a wake-up and
+    a decode on the receiving side. Here the bus sends through a second socket on a port of its
+    own, and a classic BPF filter on the receiving socket drops datagrams from that UDP source
+    port (a UDP socket filter sees the UDP header at offset 0); every other member still gets
+    them.
+    """
+    multicast = getattr(bus, "_multicast", None)
+    rx = getattr(multicast, "_socket", None)
+    if rx is None or rx.family != socket.AF_INET or not hasattr(multicast, "send"):
+        return False
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
-        return make_bus_factory(interface, channel, port, bitrate)()
+        tx.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL,
+                      rx.getsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL))
+        tx.bind(("", 0))
+        port = tx.getsockname()[1]
+        # ldh [0] (UDP source port); jeq port ? drop : accept whole datagram
+        code = b"".join(struct.pack("HBBI", *ins) for ins in (
+            (0x28, 0, 0, 0), (0x15, 0, 1, port), (0x06, 0, 0, 0), (0x06, 0, 0, 0xFFFFFFFF)))
+        program = ctypes.create_string_buffer(code)
+        rx.setsockopt(socket.SOL_SOCKET, SO_ATTACH_FILTER,
+                      struct.pack("HL", len(code) // 8, ctypes.addressof(program)))
+    except OSError:
+        tx.close()
+        return False
+    destination = (multicast.group, multicast.port)
+    timeouts: list[float | None] = [None]  # the one set on ``tx`` (setting it costs syscalls)
+
+    def send(data: bytes, timeout: float | None = None) -> None:
+        if timeout != timeouts[0]:
+            tx.settimeout(timeout)
+            timeouts[0] = timeout
+        try:
+            if tx.sendto(data, destination) < len(data):
+                raise can.CanTimeoutError()
+        except TimeoutError:
+            raise can.CanTimeoutError() from None
+        except OSError as error:
+            raise can.CanOperationError("failed to send via socket") from error
+
+    close = multicast.shutdown
+
+    def shutdown() -> None:
+        tx.close()
+        close()
+
+    multicast.send, multicast.shutdown = send, shutdown
+    return True
+
+
+def open_bus(interface: str, channel: str, port: int = 0,
+             bitrate: int | None = None, *, own_frames: bool = True) -> can.BusABC:
+    """Open the bus once; a failure raises `BusOpenError` naming the bus (`describe_bus`).
+    ``own_frames``: see `make_bus_factory`."""
+    try:
+        return make_bus_factory(interface, channel, port, bitrate, own_frames=own_frames)()
     except OPEN_ERRORS as exc:
         # python-can warns "... was not properly shut down" when a half-built bus is collected
         logging.getLogger("can.bus").setLevel(logging.ERROR)

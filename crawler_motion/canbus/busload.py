@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import operator
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 from crawler_motion.errors import ProtocolError
 
@@ -13,6 +13,8 @@ STUFFED_OVERHEAD_BITS = {False: 34, True: 54}  # 11-bit id, 29-bit id
 UNSTUFFED_BITS = 13
 #: Data bytes of a classic CAN frame at most.
 MAX_DATA_BYTES = 8
+#: Bit rate the bus-load figures refer to [bit/s].
+DEFAULT_BITRATE = 1_000_000
 
 
 def frame_bits_worst_case(data_bytes: int, extended: bool = False) -> int:
@@ -38,3 +40,13 @@ def cycle_bits(frames: Iterable[tuple[str, int]]) -> dict[str, int]:
         key = str(getattr(kind, "value", kind))
         bits[key] = bits.get(key, 0) + frame_bits_worst_case(length)
     return bits
+
+
+def load_percent(bits: Mapping[str, int], rates: Mapping[str, float],
+                 bitrate: float = DEFAULT_BITRATE) -> float:
+    """Worst-case bus load [%] of frame families sending ``bits[family]`` wire bits per cycle
+    at ``rates[family]`` [Hz] on a bus of ``bitrate`` [bit/s]; families without a rate
+    (sporadic ones, e.g. control) are not counted."""
+    if not bitrate > 0:
+        raise ProtocolError(f"bitrate must be > 0 bit/s, got {bitrate!r}")
+    return 100.0 * sum(b * rates[k] for k, b in bits.items() if k in rates) / bitrate

@@ -19,6 +19,7 @@ from crawler_motion.canbus.frames import (
     AxisStatus,
     ControlFrame,
     Decoded,
+    EffortFeedback,
     FrameKind,
     Heartbeat,
     PositionFeedback,
@@ -69,6 +70,7 @@ class FrameCodec:
             FrameKind.HEARTBEAT: self._decode_heartbeat,
             FrameKind.TARGET: self._decode_target,
             FrameKind.POSITION: self._decode_position,
+            FrameKind.EFFORT: self._decode_effort,
             FrameKind.STATUS: self._decode_status,
         }
 
@@ -94,12 +96,14 @@ class FrameCodec:
             value = values[name]
             if not _in_range(signal, value):
                 m = self._joints.by_axis[axis]
+                what, unit, mapping = ("effort", "N m", "") if frame.kind == FrameKind.EFFORT \
+                    else ("axis position", "rad", f" (direction {m.direction}, zero_offset "
+                                                  f"{m.zero_offset} rad)")
                 return ProtocolEncodeError(
-                    f"{m.joint} (axis {axis}): axis position {value:.6g} rad is beyond "
-                    f"{name}'s range [{signal.minimum}, {signal.maximum}] rad of {frame.name} "
-                    f"(direction {m.direction}, zero_offset {m.zero_offset} rad); values are "
-                    f"never clipped", frame_id=frame.frame_id, signal=name, joint=m.joint,
-                    value=value)
+                    f"{m.joint} (axis {axis}): {what} {value:.6g} {unit} is beyond {name}'s "
+                    f"range [{signal.minimum}, {signal.maximum}] {unit} of {frame.name}"
+                    f"{mapping}; values are never clipped", frame_id=frame.frame_id,
+                    signal=name, joint=m.joint, value=value)
         return ProtocolEncodeError(f"cannot encode {frame.name}: {exc}", frame_id=frame.frame_id)
 
     def _check_joint_range(self, q: np.ndarray, what: str, margin: float) -> None:
@@ -127,6 +131,17 @@ class FrameCodec:
         self._check_joint_range(self._joints.to_joint(a), "measured position",
                                 self.feedback_margin)
         return self._encode_axes(FrameKind.POSITION, a, counter)
+
+    def encode_efforts(self, e: np.ndarray, counter: int) -> list[can.Message]:
+        """Effort frames of measured axis efforts in axis order [N m] (none when the DBC has
+        no effort frames)."""
+        bad = np.flatnonzero(~np.isfinite(e))
+        if bad.size:
+            m = self._joints.by_axis[int(bad[0])]
+            raise ProtocolEncodeError(f"{m.joint} (axis {m.axis}): effort {e[bad[0]]} is not "
+                                      f"finite; efforts must be finite torques [N m]",
+                                      joint=m.joint, value=float(e[bad[0]]))
+        return self._encode_axes(FrameKind.EFFORT, e, counter)
 
     def _encode_axes(self, kind: FrameKind, a: np.ndarray, counter: int) -> list[can.Message]:
         count = _counter(counter)
@@ -272,6 +287,14 @@ class FrameCodec:
         joints, axes = self._decode_positions(frame, values, self.feedback_margin)
         return PositionFeedback(group=frame.group, counter=int(values["Counter"]),
                                 positions=joints, axes=axes)
+
+    def _decode_effort(self, frame: DbcFrame, values: Mapping[str, Any]) -> EffortFeedback:
+        axes = {axis: float(values[name]) for axis, name in frame.axis_signals}
+        space = self._joints
+        efforts = {space.by_axis[a].joint: space.by_axis[a].direction * v + 0.0  # no -0.0
+                   for a, v in axes.items()}
+        return EffortFeedback(group=frame.group, counter=int(values["Counter"]),
+                              efforts=efforts, axes=axes)
 
     def _decode_status(self, frame: DbcFrame, values: Mapping[str, Any]) -> AxisStatus:
         axes: dict[int, AxisFlags] = {}

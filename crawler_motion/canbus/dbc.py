@@ -11,22 +11,29 @@ from typing import Any
 import cantools
 
 from crawler_motion.canbus.axes import JointSpace
-from crawler_motion.canbus.frames import FLAG_SIGNALS, GROUPED, POSITION_KINDS, FrameKind
+from crawler_motion.canbus.frames import (
+    AXIS_VALUE_KINDS,
+    FLAG_SIGNALS,
+    GROUPED,
+    OPTIONAL_KINDS,
+    POSITION_KINDS,
+    FrameKind,
+)
 from crawler_motion.errors import ProtocolError, ProtocolParseError
 
 #: Heartbeat period when the DBC gives MM_Heartbeat no cycle time [s].
 DEFAULT_HEARTBEAT_PERIOD = 0.1
 #: Cycle time of each frame family when the DBC gives none [s] (targets and feedback 100 Hz).
 DEFAULT_PERIODS: dict[FrameKind, float] = {
-    FrameKind.TARGET: 0.01, FrameKind.POSITION: 0.01, FrameKind.STATUS: 0.01,
-    FrameKind.HEARTBEAT: DEFAULT_HEARTBEAT_PERIOD,
+    FrameKind.TARGET: 0.01, FrameKind.POSITION: 0.01, FrameKind.EFFORT: 0.01,
+    FrameKind.STATUS: 0.01, FrameKind.HEARTBEAT: DEFAULT_HEARTBEAT_PERIOD,
 }
 
 _SINGLE: dict[str, tuple[FrameKind, tuple[str, ...]]] = {
     "MM_Control": (FrameKind.CONTROL, ("Command", "CommandInv")),
     "MM_Heartbeat": (FrameKind.HEARTBEAT, ("State", "Counter")),
 }
-_GROUPED_NAME = re.compile(r"MM_(Target|Position|Status)_(\d+)")
+_GROUPED_NAME = re.compile(r"MM_(Target|Position|Effort|Status)_(\d+)")
 _AXIS_SIGNAL = re.compile(r"Axis(\d+)_(\w+)")
 
 
@@ -37,7 +44,7 @@ class DbcFrame:
     message: Any  # cantools Message
     kind: FrameKind
     group: int
-    axis_signals: tuple[tuple[int, str], ...]  # (axis, signal) for target/position
+    axis_signals: tuple[tuple[int, str], ...]  # (axis, signal) for target/position/effort
     flag_signals: tuple[tuple[int, tuple[str, ...]], ...]  # status: (axis, signals in FLAG order)
     counter_bits: int
     checksum_byte: int | None
@@ -91,14 +98,15 @@ class DbcIndex:
             if match is None:
                 raise self._bad(f"unexpected message {message.name}; expected MM_Control, "
                                 f"MM_Heartbeat, MM_Target_<g>, MM_Position_<g>, "
-                                f"MM_Status_<g>")
+                                f"MM_Effort_<g>, MM_Status_<g>")
             self._add(message, FrameKind(match.group(1).lower()), int(match.group(2)), used, ())
         for kind, family in GROUPED.items():
             frames = self.groups[kind]
             axes = sorted(a for f in frames for a, _ in (f.axis_signals or f.flag_signals))
-            if axes != list(range(n)):
+            if axes != list(range(n)) and (axes or kind not in OPTIONAL_KINDS):
+                optional = " (or none at all)" if kind in OPTIONAL_KINDS else ""
                 raise self._bad(f"the MM_{family}_<g> frames must carry each axis 0..{n - 1} "
-                                f"exactly once, they carry {axes}")
+                                f"exactly once{optional}, they carry {axes}")
             frames.sort(key=lambda f: f.group)
 
     def _used_bits(self, message: Any) -> int:
@@ -135,7 +143,7 @@ class DbcIndex:
                 checksum_byte = signal.start // 8
                 continue
             match = _AXIS_SIGNAL.fullmatch(name)
-            if kind in POSITION_KINDS and match and match.group(2) == GROUPED[kind]:
+            if kind in AXIS_VALUE_KINDS and match and match.group(2) == GROUPED[kind]:
                 axis_signals.append((int(match.group(1)), name))
             elif kind == FrameKind.STATUS and match and match.group(2) in FLAG_SIGNALS.values():
                 flags.setdefault(int(match.group(1)), {})[match.group(2)] = name
@@ -194,15 +202,17 @@ class DbcIndex:
     def period(self, kind: str) -> float | None:
         """Cycle time of a frame family from the DBC's GenMsgCycleTime [s], None if unset.
 
-        ``kind`` is one of ``target``, ``position``, ``status``, ``heartbeat``.
+        ``kind`` is one of ``target``, ``position``, ``effort``, ``status``, ``heartbeat``
+        (``effort``: None also when the DBC has no effort frames).
         """
         if kind == FrameKind.HEARTBEAT:
             cycle = self.single(FrameKind.HEARTBEAT).message.cycle_time
         elif kind in self.groups:
-            cycle = self.groups[FrameKind(kind)][0].message.cycle_time
+            frames = self.groups[FrameKind(kind)]
+            cycle = frames[0].message.cycle_time if frames else None
         else:
             raise ProtocolError(f"unknown frame family {kind!r}; expected target, position, "
-                                f"status or heartbeat")
+                                f"effort, status or heartbeat")
         return cycle / 1000.0 if cycle else None
 
     def cycle_period(self, kind: str) -> float:

@@ -12,6 +12,7 @@ class FrameKind(str, Enum):
     CONTROL = "control"  # MM_Control: Command, CommandInv
     TARGET = "target"  # MM_Target_<g>: Axis<n>_Target, Counter, Checksum
     POSITION = "position"  # MM_Position_<g>: Axis<n>_Position, Counter, Checksum
+    EFFORT = "effort"  # MM_Effort_<g> (optional): Axis<n>_Effort, Counter, Checksum
     STATUS = "status"  # MM_Status_<g>: Axis<n>_<Flag>, Counter, Checksum
     HEARTBEAT = "heartbeat"  # MM_Heartbeat: State, Counter
 
@@ -23,7 +24,7 @@ class Side(str, Enum):
     """Which end of the bus sends a frame."""
 
     CONTROLLER = "controller"  # the driver: control and target frames
-    MANAGER = "manager"  # the motor manager: positions, status, heartbeat
+    MANAGER = "manager"  # the motor manager: positions, efforts, status, heartbeat
 
     def __str__(self) -> str:
         return self.value
@@ -31,9 +32,13 @@ class Side(str, Enum):
 
 #: Grouped frame families (``MM_<Family>_<g>``) -> the family word in message and signal names.
 GROUPED: dict[FrameKind, str] = {FrameKind.TARGET: "Target", FrameKind.POSITION: "Position",
-                                 FrameKind.STATUS: "Status"}
+                                 FrameKind.EFFORT: "Effort", FrameKind.STATUS: "Status"}
+#: Grouped families a DBC may leave out entirely (an older manager without effort frames).
+OPTIONAL_KINDS = frozenset({FrameKind.EFFORT})
 #: Families carrying one position signal per axis.
 POSITION_KINDS = (FrameKind.TARGET, FrameKind.POSITION)
+#: Families carrying one number per axis (``Axis<n>_<Family>``).
+AXIS_VALUE_KINDS = (*POSITION_KINDS, FrameKind.EFFORT)
 #: Frame families the controller (the driver) sends; the manager sends the others.
 CONTROLLER_KINDS = frozenset({FrameKind.CONTROL, FrameKind.TARGET})
 
@@ -83,6 +88,18 @@ class PositionFeedback(GroupPositions):
 
 
 @dataclass(frozen=True)
+class EffortFeedback:
+    """One effort frame: the measured efforts of one group, ``efforts`` by joint [N m, joint
+    space: the torque about the joint's axis in its angle's sense] and ``axes`` by axis index
+    [N m, axis space: direction * joint torque]."""
+
+    group: int
+    counter: int
+    efforts: dict[str, float]
+    axes: dict[int, float]
+
+
+@dataclass(frozen=True)
 class AxisFlags:
     """Status and fault bits of one axis."""
 
@@ -119,4 +136,5 @@ class Heartbeat:
 
 
 #: What `MotorProtocol.decode` returns.
-Decoded = TargetFrame | ControlFrame | PositionFeedback | AxisStatus | Heartbeat
+Decoded = (TargetFrame | ControlFrame | PositionFeedback | EffortFeedback | AxisStatus
+           | Heartbeat)

@@ -15,9 +15,11 @@ angle outside the joint limits or a value beyond the DBC scaling raises `Protoco
 The code finds frames and signals by name, so ids, grouping, scaling and ranges can be changed
 in the DBC without touching it: ``MM_Control`` (Command, CommandInv), ``MM_Target_<g>``
 (``Axis<n>_Target``, Counter, Checksum), ``MM_Position_<g>`` (``Axis<n>_Position``, Counter,
-Checksum), ``MM_Status_<g>`` (``Axis<n>_<Flag>``, Counter, Checksum) and ``MM_Heartbeat``
-(State, Counter). ``Checksum`` is optional; where present it is one byte-aligned byte holding a
-CRC-8/SAE-J1850 over the frame id (2 bytes, little-endian) and every other data byte.
+Checksum), ``MM_Effort_<g>`` (optional: ``Axis<n>_Effort`` [N m], Counter, Checksum; axis
+effort = direction * joint torque), ``MM_Status_<g>`` (``Axis<n>_<Flag>``, Counter, Checksum)
+and ``MM_Heartbeat`` (State, Counter). ``Checksum`` is optional; where present it is one
+byte-aligned byte holding a CRC-8/SAE-J1850 over the frame id (2 bytes, little-endian) and
+every other data byte.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import can
 import numpy as np
 
 from crawler_motion.canbus.axes import AxisMapping, JointSpace, load_axis_map
-from crawler_motion.canbus.busload import cycle_bits
+from crawler_motion.canbus.busload import DEFAULT_BITRATE, cycle_bits, load_percent
 from crawler_motion.canbus.codec import FrameCodec
 from crawler_motion.canbus.dbc import DbcIndex
 from crawler_motion.canbus.frames import (
@@ -39,6 +41,7 @@ from crawler_motion.canbus.frames import (
     AxisStatus,
     ControlFrame,
     Decoded,
+    EffortFeedback,
     FrameKind,
     Heartbeat,
     PositionFeedback,
@@ -52,8 +55,8 @@ from crawler_motion.model.config import config_path
 #: The frame types are part of this module's API (``protocol.TargetFrame`` ...).
 __all__ = [
     "DEFAULT_FEEDBACK_MARGIN", "AxisFlags", "AxisMapping", "AxisStatus", "ControlFrame",
-    "Decoded", "FrameKind", "Heartbeat", "MotorProtocol", "PositionFeedback", "Side",
-    "TargetFrame",
+    "Decoded", "EffortFeedback", "FrameKind", "Heartbeat", "MotorProtocol", "PositionFeedback",
+    "Side", "TargetFrame",
 ]
 
 #: Default tolerance on measured positions beyond the joint limits [rad]: a powered-down or
@@ -149,7 +152,7 @@ class MotorProtocol:
     def period(self, kind: str) -> float | None:
         """Cycle time of a frame family from the DBC's GenMsgCycleTime [s], None if unset.
 
-        ``kind`` is one of ``target``, ``position``, ``status``, ``heartbeat``.
+        ``kind`` is one of ``target``, ``position``, ``effort``, ``status``, ``heartbeat``.
         """
         return self._index.period(kind)
 
@@ -170,9 +173,21 @@ class MotorProtocol:
         """Arbitration ids of a frame family (``control``, ``target``, ``position``, ...)."""
         return tuple(fid for fid, f in self._index.frames.items() if f.kind == kind)
 
+    @property
+    def has_effort(self) -> bool:
+        """True when the DBC has effort frames (``MM_Effort_<g>``)."""
+        return bool(self._index.groups[FrameKind.EFFORT])
+
     def cycle_bits(self) -> dict[str, int]:
         """Worst-case wire bits of one cycle of each frame family (see `frame_bits_worst_case`)."""
         return cycle_bits((f.kind, f.message.length) for f in self._index.frames.values())
+
+    def bus_load(self, command_rate: float, bitrate: float = DEFAULT_BITRATE) -> float:
+        """Worst-case bus load [%]: target frames at ``command_rate`` [Hz], the manager's
+        frames at their cycle times (`cycle_period`); sporadic control frames not counted."""
+        bits = self.cycle_bits()
+        rates = {k: 1.0 / self.cycle_period(k) for k in bits if k not in ("control", "target")}
+        return load_percent(bits, {**rates, "target": float(command_rate)}, bitrate)
 
     # ---- joint <-> axis --------------------------------------------------------------------
 
@@ -183,6 +198,16 @@ class MotorProtocol:
     def to_joint(self, axis_positions: Sequence[float]) -> np.ndarray:
         """Joint angles in joint order of axis positions in axis order [rad]."""
         return self._joints.to_joint(self._joints.vector(axis_positions, "axis positions"))
+
+    def effort_to_axis(self, joint_efforts: Sequence[float]) -> np.ndarray:
+        """Axis efforts in axis order of joint torques in joint order [N m]."""
+        return self._joints.effort_to_axis(self._joints.vector(joint_efforts, "joint efforts",
+                                                               unit="N m"))
+
+    def effort_to_joint(self, axis_efforts: Sequence[float]) -> np.ndarray:
+        """Joint torques in joint order of axis efforts in axis order [N m]."""
+        return self._joints.effort_to_joint(self._joints.vector(axis_efforts, "axis efforts",
+                                                                unit="N m"))
 
     # ---- frames ----------------------------------------------------------------------------
 
@@ -205,6 +230,14 @@ class MotorProtocol:
         """
         a = self._joints.vector(axis_positions, "measured axis positions", ProtocolEncodeError)
         return self._codec.encode_feedback(a, counter)
+
+    def encode_efforts(self, axis_efforts: Sequence[float], counter: int) -> list[can.Message]:
+        """Effort frames of measured axis efforts in axis order and axis space [N m], for the
+        simulated manager; an empty list when the DBC has no effort frames. NaN/inf or a value
+        beyond the DBC range raises `ProtocolEncodeError` (never clipped)."""
+        e = self._joints.vector(axis_efforts, "measured axis efforts", ProtocolEncodeError,
+                                unit="N m")
+        return self._codec.encode_efforts(e, counter)
 
     def encode_status(self, flags: Sequence[AxisFlags], counter: int) -> list[can.Message]:
         """Status frames of one `AxisFlags` per axis, in axis order."""

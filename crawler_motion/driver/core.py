@@ -86,16 +86,18 @@ class DriverCore:
 
     Give exactly one of ``bus`` (not owned: never shut down by the core) or ``bus_factory``
     (called by `open` and by every reopen; the core shuts those buses down). ``clock`` is a
-    steady clock [s]; ``on_feedback(positions)`` receives each complete joint-state vector in
-    joint order [rad] (from the thread calling `poll`). ``logger`` is a `logging.Logger` or an
-    rclpy logger. Thread-safe: `start` runs `poll` and `tick` in a background thread.
+    steady clock [s]; ``on_feedback(positions, efforts)`` receives each complete joint-state
+    vector in joint order [rad] with the joint efforts of the same cycle [N m], or an empty
+    array when the manager did not report all of them (from the thread calling `poll`).
+    ``logger`` is a `logging.Logger` or an rclpy logger. Thread-safe: `start` runs `poll` and
+    `tick` in a background thread.
     """
 
     def __init__(self, protocol: MotorProtocol, bus: can.BusABC | None = None, *,
                  bus_factory: Callable[[], can.BusABC] | None = None,
                  settings: DriverSettings | None = None,
                  clock: Callable[[], float] = time.monotonic,
-                 on_feedback: Callable[[np.ndarray], None] | None = None,
+                 on_feedback: Callable[[np.ndarray, np.ndarray], None] | None = None,
                  logger: Any = None) -> None:
         self.protocol = protocol
         self._settings = settings or DriverSettings()
@@ -267,7 +269,7 @@ class DriverCore:
                 if heartbeat is not None:
                     self._control.on_heartbeat(heartbeat.state, now, self._hb_period)
             if emit is not None and self._on_feedback is not None:
-                self._on_feedback(emit)
+                self._on_feedback(*emit)
         return handled
 
     # ---- lifecycle and safety commands, joint commands (see `MotionControl`) ---------------

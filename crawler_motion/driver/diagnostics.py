@@ -161,6 +161,7 @@ class DriverDiagnostics:
             ("command_age", age(now, gate.last_command)),
             ("command_timeout", f"{settings.command_timeout:g}"),
             ("feedback_age", age(now, fb.position_time)),
+            ("effort_age", age(now, fb.effort_time)),
             ("active", str(gate.active)),
             ("enabled", str(gate.enabled)),
             ("estop_latched", str(gate.latched)),

@@ -1,4 +1,5 @@
-"""Decoding the manager's frames into joint positions, axis flags and the last heartbeat."""
+"""Decoding the manager's frames into joint positions and efforts, axis flags and the last
+heartbeat."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import numpy as np
 from crawler_motion.canbus.protocol import (
     AxisFlags,
     AxisStatus,
+    EffortFeedback,
     Heartbeat,
     MotorProtocol,
     PositionFeedback,
@@ -16,11 +18,15 @@ from crawler_motion.driver.bus_watch import BusWatch
 
 
 class Feedback:
-    """What the manager reported: positions, per-axis flags, the heartbeat (steady times [s]).
+    """What the manager reported: positions, efforts, per-axis flags, the heartbeat (steady
+    times [s]).
 
     `handle` emits a joint-state vector (joint order [rad]) once every position group has been
-    received since the last one, so each vector is one complete, fresh measurement. Position,
-    status and heartbeat frames whose counter repeats the previous one of their group are
+    received since the last one, so each vector is one complete, fresh measurement. With it go
+    the joint efforts (joint order [N m]) when every effort group was received since the last
+    vector too (the manager sends them before the positions of a cycle), else an empty array:
+    a missing or incomplete effort set is never filled in. Position, effort, status and
+    heartbeat frames whose counter repeats the previous one of their group are
     dropped (a heartbeat whose counter does not advance is no sign of life): as
     stale when identical, as a conflict (two senders claiming one counter: an attack, alarmed
     on ``watch``) when they differ. Undecodable frames are dropped; controller-side frames go
@@ -32,6 +38,7 @@ class Feedback:
         self.watch = watch
         self._index = {name: i for i, name in enumerate(protocol.joint_names)}
         self._position_groups = len(protocol.frame_ids("position"))
+        self._effort_groups = len(protocol.frame_ids("effort"))
         self.counts = dict.fromkeys(("rx", "rx_dropped", "rx_ignored", "feedback"), 0)
         self.last_rx_error = ""
         self.reset()
@@ -39,7 +46,10 @@ class Feedback:
     def reset(self) -> None:
         """Forget everything received (a new bus)."""
         self.positions = np.full(self.protocol.n_axes, np.nan)
+        self.efforts = np.full(self.protocol.n_axes, np.nan)  # latest per joint [N m]
         self._fresh: set[int] = set()
+        self._fresh_efforts: set[int] = set()
+        self.effort_time: float | None = None  # last complete effort set
         # (frame type, group) -> (counter, data) of the last frame taken
         self._last_counter: dict[tuple[type, int], tuple[int, bytes]] = {}
         self.position_time: float | None = None
@@ -48,8 +58,10 @@ class Feedback:
         self.heartbeat: Heartbeat | None = None
         self.heartbeat_time: float | None = None
 
-    def handle(self, msg: can.Message, now: float) -> tuple[Heartbeat | None, np.ndarray | None]:
-        """Take one received frame: (the heartbeat it was, the vector it completed)."""
+    def handle(self, msg: can.Message, now: float
+               ) -> tuple[Heartbeat | None, tuple[np.ndarray, np.ndarray] | None]:
+        """Take one received frame: (the heartbeat it was, the (positions, efforts) it
+        completed; efforts empty when not all of them came since the last vector)."""
         self.counts["rx"] += 1
         controller = self.protocol.sender(msg) == "controller"
         if controller and self.watch.own(msg, now):
@@ -62,7 +74,7 @@ class Feedback:
         if controller:  # valid, and not ours: another controller or an attacker
             self.watch.foreign(msg, now)
             return None, None
-        if isinstance(frame, (PositionFeedback, AxisStatus, Heartbeat)):
+        if isinstance(frame, (PositionFeedback, EffortFeedback, AxisStatus, Heartbeat)):
             key, data = (type(frame), getattr(frame, "group", 0)), bytes(msg.data)
             last = self._last_counter.get(key)
             if last is not None and last[0] == frame.counter:
@@ -75,6 +87,10 @@ class Feedback:
             self._last_counter[key] = (frame.counter, data)
         if isinstance(frame, PositionFeedback):
             return None, self._positions(frame, now)
+        if isinstance(frame, EffortFeedback):
+            for joint, value in frame.efforts.items():
+                self.efforts[self._index[joint]] = value
+            self._fresh_efforts.add(frame.group)
         if isinstance(frame, AxisStatus):
             for axis, flags in frame.axes.items():
                 self.flags[axis] = flags
@@ -90,7 +106,8 @@ class Feedback:
         self.last_rx_error = reason
         return None, None
 
-    def _positions(self, frame: PositionFeedback, now: float) -> np.ndarray | None:
+    def _positions(self, frame: PositionFeedback, now: float
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
         for joint, value in frame.positions.items():
             self.positions[self._index[joint]] = value
         self._fresh.add(frame.group)
@@ -99,4 +116,9 @@ class Feedback:
         self._fresh.clear()
         self.position_time = now
         self.counts["feedback"] += 1
-        return self.positions.copy()
+        efforts = np.empty(0)
+        if self._effort_groups and len(self._fresh_efforts) == self._effort_groups:
+            efforts = self.efforts.copy()
+            self.effort_time = now
+        self._fresh_efforts.clear()
+        return self.positions.copy(), efforts

@@ -12,9 +12,11 @@ an e-stop. ``joint_states`` and ``/diagnostics`` are published whenever the bus 
 while inactive, so the measured pose is known before the motors are enabled).
 
 Topics: sub ``joint_commands`` (sensor_msgs/JointState, depth 1, best effort: only the newest
-command matters), ``estop`` (std_msgs/Bool, true latches), ``planner_status`` (std_msgs/String
-JSON; ``"state": "ESTOP"`` latches); pub ``joint_states`` (sensor_msgs/JointState, measured,
-joint order, stamped on reception of a complete position cycle), ``/diagnostics``,
+command matters; taken by a thread of its own, `command_input`), ``estop`` (std_msgs/Bool,
+true latches), ``planner_status`` (std_msgs/String JSON; ``"state": "ESTOP"`` latches); pub
+``joint_states`` (sensor_msgs/JointState, measured, joint order, stamped on reception of a
+complete position cycle; ``effort`` [N m] when the manager sent every effort frame of the
+cycle, else empty), ``/diagnostics`` (statuses named ``<namespace/node>: <what>``),
 ``driver_status`` (std_msgs/String JSON, transient local: ``state`` the motion gate's state,
 ``enable_epoch`` the number of enables sent, ``lifecycle``, ``reason``; on every change within
 `LEVEL_WATCH_PERIOD` and every ``diagnostics_period``; the planner ends a walk on a state other
@@ -31,7 +33,7 @@ from typing import Any
 
 import can
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
@@ -43,21 +45,22 @@ from std_srvs.srv import Trigger
 
 from crawler_motion.canbus.bus import make_bus_factory
 from crawler_motion.canbus.protocol import MotorProtocol
+from crawler_motion.driver.command_input import CommandInput
 from crawler_motion.driver.core import DriverCore
 from crawler_motion.driver.diagnostics import StatusEntry, unconfigured_entry
+from crawler_motion.driver.messages import diagnostic_array, driver_status
 from crawler_motion.driver.rclpy_workarounds import guard_change_state, publish_unless_shut_down
 from crawler_motion.driver.settings import PARAMETERS, DriverSettings, default_files
 from crawler_motion.errors import ConfigError, CrawlerMotionError, ProtocolError
 from crawler_motion.model.config import load_config
+from crawler_motion.runtime.diagnostic_names import status_prefix
 from crawler_motion.runtime.parameters import validate_parameters
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 from crawler_motion.runtime.ticker import set_process_priority
 
 NODE_NAME = "driver"
-HARDWARE_ID = "motor_manager"
 N_JOINTS = 12
-COMMAND_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 #: Period of the check for changed diagnostic levels, published at once when one changed [s].
 LEVEL_WATCH_PERIOD = 0.05
 STATUS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -92,34 +95,6 @@ def apply_priority(priority: int, logger: Any) -> None:
             logger.info(f"process at SCHED_FIFO priority {priority}")
 
 
-def diagnostic_array(entries: list[StatusEntry], node_name: str,
-                     lifecycle_state: str) -> DiagnosticArray:
-    """The /diagnostics message of ``entries`` (unstamped); the manager's entry also carries
-    the lifecycle state."""
-    array = DiagnosticArray()
-    for entry in entries:
-        values = [KeyValue(key="lifecycle_state", value=lifecycle_state)] if (
-            entry.name == "motor manager") else []
-        values.extend(KeyValue(key=k, value=v) for k, v in entry.values)
-        array.status.append(DiagnosticStatus(
-            level=bytes([entry.level]), name=f"{node_name}: {entry.name}",
-            message=entry.message, hardware_id=HARDWARE_ID, values=values))
-    return array
-
-
-def driver_status(core: DriverCore | None, lifecycle: str, latched: str,
-                  configure_error: str, instance: str) -> dict[str, Any]:
-    """The ``driver_status`` object: gate state, enable epoch, lifecycle state, reason, the
-    ``instance`` token of this driver process and the ``command_timeout`` [s]."""
-    common = {"lifecycle": lifecycle, "instance": instance}
-    if core is None:
-        return {"state": "estop" if latched else "inactive", "enable_epoch": 0, **common,
-                "reason": latched or configure_error or "not configured"}
-    return {"state": core.gate_state, "enable_epoch": core.enable_epoch, **common,
-            "command_timeout": core.settings.command_timeout, "reason": core.estop_reason or (
-                "" if core.motion_allowed else "motors not enabled / watchdog tripped")}
-
-
 class DriverNode(LifecycleNode):
     """The lifecycle driver node; ``bus_factory`` replaces the bus the parameters describe."""
 
@@ -133,15 +108,13 @@ class DriverNode(LifecycleNode):
         self._joint_names: tuple[str, ...] = ()
         self._label = "unconfigured"  # the lifecycle state, as the transitions left it
         self._latched = ""  # ESTOP latched while no core exists (kept across cleanup)
-        self._dropped_unconfigured = 0
         self._configure_error = ""
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._joint_state_pub = self.create_publisher(JointState, "joint_states", 10)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._driver_status_pub = self.create_publisher(String, "driver_status", STATUS_QOS)
         self._driver_status, self._instance = "", uuid.uuid4().hex[:12]  # new at every start
-        self.create_subscription(JointState, "joint_commands", self._on_joint_commands,
-                                 COMMAND_QOS)
+        self.commands = CommandInput(self, lambda: self._core)  # topic and direct hand-over
         self.create_subscription(Bool, "estop", self._on_estop_topic, 10)
         self.create_subscription(String, "planner_status", self._on_planner_status, 10)
         self.create_service(Trigger, "~/enable", self._on_enable)
@@ -152,6 +125,7 @@ class DriverNode(LifecycleNode):
         # a level change goes out at once: the planner pauses on ERROR without waiting a period
         self._published_levels: tuple[tuple[str, int], ...] = ()
         self.create_timer(LEVEL_WATCH_PERIOD, self._watch_levels, clock=self._steady)
+        self.commands.start()
         if self._value("autostart") and self.trigger_configure() == SUCCESS:
             self.trigger_activate()
 
@@ -200,7 +174,7 @@ class DriverNode(LifecycleNode):
             protocol = load_protocol(values)
             factory = self._bus_factory or make_bus_factory(
                 values["can_interface"], values["can_channel"], values["can_port"],
-                values["bitrate"])
+                values["bitrate"], own_frames=False)  # as SocketCAN: no own loop-back
             core = DriverCore(protocol, bus_factory=factory,
                               settings=DriverSettings.from_parameters(values),
                               on_feedback=self._publish_joint_state, logger=self.get_logger())
@@ -266,22 +240,12 @@ class DriverNode(LifecycleNode):
         return SUCCESS
 
     def destroy_node(self) -> None:
-        """Close the bus (deactivating first), then destroy the node."""
+        """Stop taking joint_commands, close the bus (deactivating first), destroy the node."""
+        self.commands.close()
         self._close_core(self._label)
         super().destroy_node()
 
     # ---- commands and safety ---------------------------------------------------------------
-
-    def _on_joint_commands(self, msg: JointState, info: Mapping[str, Any]) -> None:
-        core = self._core
-        if core is None:
-            self._dropped_unconfigured += 1
-            return
-        result = core.submit(msg.name, msg.position, msg.velocity, msg.effort,  # MessageInfo
-                             sequence=info.get("publication_sequence_number"))  # SenderWatch
-        if not result.accepted and core.active:
-            self.get_logger().warning(f"joint_commands refused: {result.reason}",
-                                      throttle_duration_sec=1.0)
 
     def _latch(self, reason: str) -> bool:
         """Latch ESTOP now; True when the e-stop frame went out within this call."""
@@ -336,10 +300,12 @@ class DriverNode(LifecycleNode):
 
     # ---- publishing ------------------------------------------------------------------------
 
-    def _publish_joint_state(self, positions: np.ndarray) -> None:
-        """Publish one measured joint state (called from the core's receive thread)."""
+    def _publish_joint_state(self, positions: np.ndarray, efforts: np.ndarray) -> None:
+        """Publish one measured joint state, efforts [N m] empty when not reported (called from
+        the core's receive thread)."""
         def make() -> JointState:
-            msg = JointState(name=list(self._joint_names), position=positions.tolist())
+            msg = JointState(name=list(self._joint_names), position=positions.tolist(),
+                             effort=efforts.tolist())
             msg.header.stamp = self.get_clock().now().to_msg()
             return msg
 
@@ -363,11 +329,12 @@ class DriverNode(LifecycleNode):
         self._publish_driver_status(always=entries is None)  # periodic: driver_status too
         if self._core is None:
             entries = [unconfigured_entry(self._label, self._configure_error, self._latched,
-                                          self._dropped_unconfigured)]
+                                          self.commands.dropped_unconfigured)]
         elif entries is None:
             entries = self._core.status()
         self._published_levels = tuple((e.name, e.level) for e in entries)
-        array = diagnostic_array(entries, self.get_name(), self._label)
+        array = diagnostic_array(entries, status_prefix(self.get_namespace(), self.get_name()),
+                                 self._label)
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(array)
 

@@ -96,6 +96,12 @@ def rates(robot: RobotConfig, angles: np.ndarray, foot_velocity: np.ndarray) -> 
     return out
 
 
+def jacobians(robot: RobotConfig, angles: np.ndarray) -> np.ndarray:
+    """Leg Jacobians ``d foot / d q`` ``(..., n_legs, 3, 3)`` [m/rad] in base_link."""
+    a = np.asarray(angles, dtype=float)
+    return np.stack([_leg_fk(robot, i, a[..., i, :])[1] for i in range(robot.n_legs)], axis=-3)
+
+
 def leg_frame_feet(robot: RobotConfig, leg: int, feet: np.ndarray) -> np.ndarray:
     """Foot positions ``(..., 3)`` [m] of leg ``leg`` from base_link to its leg frame."""
     return to_leg(feet, robot.hips[leg], float(robot.neutral_yaw[leg]))

@@ -116,6 +116,15 @@ def parse_calibration(data: Any, legs: tuple[str, ...], links: tuple[float, floa
     return LegCalibration(tuple(legs), params, base.nominal, str(path))
 
 
+def _yaml_error(exc: yaml.YAMLError) -> str:
+    """The YAML parser's complaint on one line (with its line and column when it has one)."""
+    mark = getattr(exc, "problem_mark", None)
+    problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
+    if mark is None:
+        return problem
+    return f"{problem} (line {mark.line + 1}, column {mark.column + 1})"
+
+
 def load_calibration(path: str | Path, legs: tuple[str, ...],
                      links: tuple[float, float, float]) -> LegCalibration:
     """Read and check a calibration file for a robot with ``legs`` and nominal links [m].
@@ -129,8 +138,11 @@ def load_calibration(path: str | Path, legs: tuple[str, ...],
     except OSError as exc:
         raise CalibrationError(f"cannot read calibration file {file}: {exc.strerror}",
                                path=file) from exc
-    except (UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise CalibrationError(f"calibration file {file} is not valid YAML: {exc}",
+    except UnicodeDecodeError as exc:
+        raise CalibrationError(f"calibration file {file} is not UTF-8 text ({exc})",
+                               path=file) from exc
+    except yaml.YAMLError as exc:
+        raise CalibrationError(f"calibration file {file} is not valid YAML: {_yaml_error(exc)}",
                                path=file) from exc
     return parse_calibration(data, legs, links, file)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,12 +18,18 @@ import yaml
 
 from crawler_motion.errors import ConfigError
 from crawler_motion.model.calibration_file import LegCalibration, with_calibration
+from crawler_motion.model.gait_config import (  # re-exported: part of the loaded `Config`
+    GaitConfig,
+    parse_gait,
+)
+from crawler_motion.model.pose_limits import BodyPoseConfig, parse_body_pose
+from crawler_motion.model.yaml_values import number as _number
+from crawler_motion.model.yaml_values import positive as _positive
+from crawler_motion.model.yaml_values import section as _section
 
 PACKAGE = "crawler_motion"
 JOINT_KINDS: tuple[str, ...] = ("root", "shoulder", "knee")
 DEFAULT_LEGS: tuple[str, ...] = ("lf", "lb", "rb", "rf")
-#: The lift, arc and lower fractions of a profile must sum to 1 within this (rounding only).
-FRACTION_SUM_TOL = 1e-9
 
 
 def config_dir() -> Path:
@@ -57,28 +63,6 @@ def config_path(name: str) -> Path:
 def joint_names(legs: tuple[str, ...] = DEFAULT_LEGS) -> tuple[str, ...]:
     """The 12 joint names in array order: ``lf_root_joint, lf_shoulder_joint, ...``."""
     return tuple(f"{leg}_{kind}_joint" for leg in legs for kind in JOINT_KINDS)
-
-
-def _number(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(f"{what} must be a number, got {value!r}")
-    if not math.isfinite(value):
-        raise ConfigError(f"{what} must be finite, got {value!r}")
-    return float(value)
-
-
-def _positive(value: Any, what: str) -> float:
-    number = _number(value, what)
-    if number <= 0.0:
-        raise ConfigError(f"{what} must be > 0, got {number}")
-    return number
-
-
-def _section(data: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any]:
-    value = data.get(key)
-    if not isinstance(value, Mapping):
-        raise ConfigError(f"{where}: missing section '{key}' (a mapping)")
-    return value
 
 
 @dataclass(frozen=True)
@@ -140,50 +124,12 @@ class RobotConfig:
 
 
 @dataclass(frozen=True)
-class ProfileConfig:
-    """Time split of the swing and junction velocity ratios of one profile.
-
-    The fractions are parts of the swing time (robot.yaml keys ``lift``, ``arc``, ``lower`` of
-    ``gait.profiles.<name>``); not to be confused with the heights ``lift`` and ``arc`` [m] of
-    `GaitConfig` and `WalkParams`. ``v_b`` / ``v_d`` are the junction speeds at B / D in units
-    of the mean vertical speed of the lift / lower segment.
-    """
-
-    lift_fraction: float
-    arc_fraction: float
-    lower_fraction: float
-    v_b: float
-    v_d: float
-
-
-@dataclass(frozen=True)
-class GaitConfig:
-    """Gait defaults, ranges, phase tables and profiles."""
-
-    gait: str
-    profile: str
-    stride: float
-    lift: float
-    arc: float
-    swing_time: float
-    #: Stance time [s] of the single-leg step cycle (the default of ``crawler-motion
-    #: trajectory``, the comparison plots); walks (planner, ``crawler-motion walk``) default
-    #: to ``(groups - 1) x swing_time`` of their gait instead (`gait.validate_params`).
-    stance_time: float
-    max_stride: float
-    max_turn: float
-    max_clearance: float
-    swing_time_range: tuple[float, float]
-    gaits: dict[str, tuple[tuple[str, ...], ...]] = field(default_factory=dict)
-    profiles: dict[str, ProfileConfig] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
 class Config:
     """Everything in ``robot.yaml``."""
 
     robot: RobotConfig
     gait: GaitConfig
+    body_pose: BodyPoseConfig
     source: str = "<memory>"
 
 
@@ -266,66 +212,6 @@ def parse_robot(data: Mapping[str, Any], where: str = "robot") -> RobotConfig:
                        name=str(data.get("name", "crawler")))
 
 
-def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gait") -> GaitConfig:
-    """Validate the ``gait`` section of the YAML and build a `GaitConfig`."""
-    gaits_raw = _section(data, "gaits", where)
-    gaits: dict[str, tuple[tuple[str, ...], ...]] = {}
-    for name, table in gaits_raw.items():
-        groups = table.get("groups") if isinstance(table, Mapping) else None
-        if (not isinstance(groups, list) or len(groups) < 2
-                or not all(isinstance(group, list) and group
-                           and all(isinstance(leg, str) for leg in group) for group in groups)):
-            raise ConfigError(f"{where}.gaits.{name}.groups must list >= 2 groups (lists) of "
-                              f"leg names, got {groups!r}")
-        flat = [leg for group in groups for leg in group]
-        if sorted(flat) != sorted(legs):
-            raise ConfigError(f"{where}.gaits.{name}: every leg {list(legs)} must swing exactly "
-                              f"once per step, got {groups}")
-        gaits[str(name)] = tuple(tuple(group) for group in groups)
-    profiles: dict[str, ProfileConfig] = {}
-    for name, prof in _section(data, "profiles", where).items():
-        if not isinstance(prof, Mapping):
-            raise ConfigError(f"{where}.profiles.{name} must be a mapping")
-        values = {k: _number(prof.get(k), f"{where}.profiles.{name}.{k}")
-                  for k in ("lift", "arc", "lower", "v_b", "v_d")}
-        fractions = (values["lift"], values["arc"], values["lower"])
-        if min(fractions) <= 0 or abs(sum(fractions) - 1.0) > FRACTION_SUM_TOL:
-            raise ConfigError(f"{where}.profiles.{name}: lift + arc + lower must be positive "
-                              f"fractions summing to 1, got {fractions}")
-        if values["v_b"] < 0 or values["v_d"] < 0:
-            raise ConfigError(f"{where}.profiles.{name}: v_b and v_d must be >= 0")
-        profiles[str(name)] = ProfileConfig(
-            lift_fraction=values["lift"], arc_fraction=values["arc"],
-            lower_fraction=values["lower"], v_b=values["v_b"], v_d=values["v_d"])
-    for needed in ("rest", "smooth"):
-        if needed not in profiles:
-            raise ConfigError(f"{where}.profiles must define '{needed}'")
-    rng = data.get("swing_time_range", [0.1, 5.0])
-    if not isinstance(rng, list) or len(rng) != 2:
-        raise ConfigError(f"{where}.swing_time_range must be [min, max] in s, got {rng!r}")
-    cfg = GaitConfig(
-        gait=str(data.get("gait", "diagonal")), profile=str(data.get("profile", "smooth")),
-        stride=_number(data.get("stride"), f"{where}.stride"),
-        lift=_positive(data.get("lift"), f"{where}.lift"),
-        arc=_positive(data.get("arc"), f"{where}.arc"),
-        swing_time=_positive(data.get("swing_time"), f"{where}.swing_time"),
-        stance_time=_positive(data.get("stance_time"), f"{where}.stance_time"),
-        max_stride=_positive(data.get("max_stride"), f"{where}.max_stride"),
-        max_turn=_positive(data.get("max_turn"), f"{where}.max_turn"),
-        max_clearance=_positive(data.get("max_clearance"), f"{where}.max_clearance"),
-        swing_time_range=(_positive(rng[0], f"{where}.swing_time_range"),
-                          _positive(rng[1], f"{where}.swing_time_range")),
-        gaits=gaits, profiles=profiles)
-    if cfg.swing_time_range[0] > cfg.swing_time_range[1]:
-        raise ConfigError(f"{where}.swing_time_range must be [min, max] with min <= max, "
-                          f"got {list(cfg.swing_time_range)}")
-    if cfg.gait not in gaits:
-        raise ConfigError(f"{where}.gait '{cfg.gait}' is not one of {sorted(gaits)}")
-    if cfg.profile not in profiles:
-        raise ConfigError(f"{where}.profile '{cfg.profile}' is not one of {sorted(profiles)}")
-    return cfg
-
-
 def load_config(path: str | Path | None = None) -> Config:
     """Load and validate ``robot.yaml`` (the shipped default when ``path`` is None)."""
     file = Path(path) if path is not None else config_path("robot.yaml")
@@ -346,7 +232,8 @@ def load_config(path: str | Path | None = None) -> Config:
     calibration = data["robot"].get("calibration_file")
     if calibration is not None:  # relative to robot.yaml
         robot = with_calibration(robot, file.parent / str(calibration))
-    return Config(robot=robot, gait=gait, source=str(file))
+    body_pose = parse_body_pose(_section(data, "body_pose", str(file)), f"{file}: body_pose")
+    return Config(robot=robot, gait=gait, body_pose=body_pose, source=str(file))
 
 
 @dataclass(frozen=True)

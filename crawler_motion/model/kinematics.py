@@ -145,6 +145,31 @@ def forward_kinematics(robot: RobotConfig, angles: np.ndarray) -> np.ndarray:
     return robot.hips + np.stack((r * np.cos(yaw), r * np.sin(yaw), w), axis=-1)
 
 
+def foot_jacobians(robot: RobotConfig, angles: np.ndarray) -> np.ndarray:
+    """Leg Jacobians ``d foot / d q`` ``(..., n_legs, 3, 3)`` [m/rad] at ``angles`` [rad].
+
+    Row i, column j: d (foot coordinate i in base_link) / d (joint j of the leg), joints root,
+    shoulder, knee. Its transpose maps a force on the foot to joint torques (tau = J^T F); see
+    `joint_velocities` for where it is singular. Calibrated legs use their chains.
+    """
+    a = _as_feet(angles, robot.n_legs, "joint angles")
+    if robot.calibrated:
+        return calibrated.jacobians(robot, a)
+    root, shoulder, knee = a[..., 0], a[..., 1], a[..., 2]
+    yaw = robot.neutral_yaw + root
+    tibia = shoulder - knee
+    l2, l3 = robot.l2, robot.l3
+    r = robot.l1 + l2 * np.cos(shoulder) + l3 * np.cos(tibia)
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    du = (-l2 * np.sin(shoulder) - l3 * np.sin(tibia), l3 * np.sin(tibia))  # d r / d (s, k)
+    dw = (l2 * np.cos(shoulder) + l3 * np.cos(tibia), -l3 * np.cos(tibia))  # d z / d (s, k)
+    jac = np.empty((*a.shape, 3))
+    jac[..., 0, 0], jac[..., 1, 0], jac[..., 2, 0] = -r * sy, r * cy, 0.0
+    for j in (1, 2):
+        jac[..., 0, j], jac[..., 1, j], jac[..., 2, j] = du[j - 1] * cy, du[j - 1] * sy, dw[j - 1]
+    return jac
+
+
 def joint_velocities(robot: RobotConfig, angles: np.ndarray, foot_velocity: np.ndarray
                      ) -> np.ndarray:
     """Joint rates ``(..., n_legs, 3)`` [rad/s] producing ``foot_velocity`` [m/s] at ``angles``.

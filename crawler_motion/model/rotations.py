@@ -11,13 +11,50 @@ MIN_QUATERNION_NORM = 1e-9
 
 
 def rpy_matrix(rpy: np.ndarray) -> np.ndarray:
-    """Rotation matrix of fixed-axis roll, pitch, yaw [rad]: ``Rz(yaw) Ry(pitch) Rx(roll)``."""
-    roll, pitch, yaw = (float(a) for a in rpy)
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
-                              math.cos(yaw), math.sin(yaw))
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    """Rotation matrix of fixed-axis roll, pitch, yaw [rad]: ``Rz(yaw) Ry(pitch) Rx(roll)``.
+
+    ``rpy`` is ``(..., 3)``; the result ``(..., 3, 3)`` (one matrix per leading index).
+    """
+    angles = np.asarray(rpy, dtype=float)
+    cr, cp, cy = np.moveaxis(np.cos(angles), -1, 0)
+    sr, sp, sy = np.moveaxis(np.sin(angles), -1, 0)
+    rows = ((cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
+            (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
+            (-sp, cp * sr, cp * cr))
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+
+
+def rpy_angular_velocity(rpy: np.ndarray, rpy_rate: np.ndarray) -> np.ndarray:
+    """Angular velocity ``(..., 3)`` [rad/s], in the fixed (parent) frame, of the rotation
+    `rpy_matrix` (``rpy`` [rad]) whose angles change at ``rpy_rate`` [rad/s]: yaw turns about
+    the fixed z, pitch about the once-yawed y, roll about the rotated x
+    (``dR/dt = [w]x R``)."""
+    angles = np.asarray(rpy, dtype=float)
+    rates = np.asarray(rpy_rate, dtype=float)
+    _, pitch, yaw = np.moveaxis(angles, -1, 0)
+    roll_dot, pitch_dot, yaw_dot = np.moveaxis(rates, -1, 0)
+    cp, sp, cy, sy = np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    return np.stack((cy * cp * roll_dot - sy * pitch_dot,
+                     sy * cp * roll_dot + cy * pitch_dot,
+                     yaw_dot - sp * roll_dot), axis=-1)
+
+
+def rpy_angular_acceleration(rpy: np.ndarray, rpy_rate: np.ndarray, rpy_accel: np.ndarray
+                             ) -> np.ndarray:
+    """Angular acceleration ``(..., 3)`` [rad/s^2] (fixed frame), the time derivative of
+    `rpy_angular_velocity`, for angles [rad], their rates [rad/s] and accelerations
+    [rad/s^2]."""
+    angles, rates, accels = (np.asarray(a, dtype=float) for a in (rpy, rpy_rate, rpy_accel))
+    _, pitch, yaw = np.moveaxis(angles, -1, 0)
+    roll_dot, pitch_dot, yaw_dot = np.moveaxis(rates, -1, 0)
+    roll_dd, pitch_dd, yaw_dd = np.moveaxis(accels, -1, 0)
+    cp, sp, cy, sy = np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    return np.stack(
+        (cy * cp * roll_dd - sy * pitch_dd
+         - (sy * cp * yaw_dot + cy * sp * pitch_dot) * roll_dot - cy * yaw_dot * pitch_dot,
+         sy * cp * roll_dd + cy * pitch_dd
+         + (cy * cp * yaw_dot - sy * sp * pitch_dot) * roll_dot - sy * yaw_dot * pitch_dot,
+         yaw_dd - sp * roll_dd - cp * pitch_dot * roll_dot), axis=-1)
 
 
 def quaternion_matrix(wxyz: np.ndarray) -> np.ndarray:

@@ -95,11 +95,13 @@ def body_velocity(stride: np.ndarray, stance_time: float) -> np.ndarray:
 
 
 def continuous_swing_segments(a: np.ndarray, e: np.ndarray, shape: SwingShape,
-                              velocity: np.ndarray) -> list[Segment]:
+                              velocity: np.ndarray, velocity_end: np.ndarray | None = None
+                              ) -> list[Segment]:
     """Lift A->B, arc B->C->D, lower D->E with horizontal end velocity ``velocity`` [m/s].
 
     ``a`` (lift-off) and ``e`` (touch-down) are 3-vectors in base_link [m]; ``velocity`` is
-    the foot's velocity at both ends (the stance velocity, horizontal: its z is ignored).
+    the foot's velocity at lift-off and ``velocity_end`` at touch-down (default: the same; the
+    stance velocities, horizontal: their z is ignored).
     z follows ``shape.profile`` exactly as `trajectory.swing_segments`; x and y are one
     sextic over the whole swing (see the module docstring).
     """
@@ -110,13 +112,16 @@ def continuous_swing_segments(a: np.ndarray, e: np.ndarray, shape: SwingShape,
     t_w = _duration(shape.swing_time, "swing_time")
     a = np.asarray(a, dtype=float)
     e = np.asarray(e, dtype=float)
-    v = np.zeros(3)
+    v, w = np.zeros(3), np.zeros(3)
     v[:2] = np.asarray(velocity, dtype=float).reshape(-1)[:2]
-    if not np.all(np.isfinite(v)):
-        raise TrajectoryError(f"velocity must be finite, got {velocity!r}")
+    w[:2] = v[:2] if velocity_end is None else np.asarray(velocity_end,
+                                                          dtype=float).reshape(-1)[:2]
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(w))):
+        raise TrajectoryError(f"velocity must be finite, got {velocity!r}, {velocity_end!r}")
     vertical = swing_segments(a, e, shape)  # validates lift / arc; its z rows are kept
     zero = np.zeros(2)
-    whole = sextic_coefficients(t_w, a[:2], v[:2], zero, e[:2], v[:2], zero, (a[:2] + e[:2]) / 2)
+    mid = (a[:2] + e[:2]) / 2 + 5.0 * t_w * (v[:2] - w[:2]) / 32.0  # the quintic's (glide)
+    whole = sextic_coefficients(t_w, a[:2], v[:2], zero, e[:2], w[:2], zero, mid)
     segments = []
     start = 0.0
     for seg in vertical:

@@ -12,16 +12,21 @@ and is what the planner's tick runs:
   `trajectory.evaluate_polynomial`;
 - `FastKinematics` is the closed-form IK and the analytic Jacobian inverse of
   `crawler_motion.model.kinematics`, operation for operation, for all legs; with calibrated
-  legs the closed form starts the Newton refinement of `fastchain.ScalarLeg` (the float form of
-  `crawler_motion.model.calibrated`), warm-started from the last call's correction, whose
-  final Jacobian gives the joint rates at the angles `inverse` returned;
+  legs the Newton refinement of `fastchain.ScalarLeg` (the float form of
+  `crawler_motion.model.calibrated`) starts from the leg's last solution, or from the closed
+  form when there is none or it misses, and the Jacobian of its last evaluation gives the
+  joint rates at the angles `inverse` returned;
 - `joint_targets` chains them: one call per control tick.
 
-Results equal the numpy path to rounding (tested to 1e-12 over whole walks). Errors are
-identical by construction: whenever a fast check finds a target outside the workspace, an
-angle outside the joint limits or a singular Jacobian, the numpy function is called on the
-same input and raises its own `UnreachableError` / `JointLimitError` / `KinematicsError`
-(should it not raise, a disagreement within rounding at a boundary, its result is returned).
+Nominal legs: results equal the numpy path to rounding (tested to 1e-12 over whole walks).
+Calibrated legs: the feet land within `fastchain.STEP_BOUND` (1e-8 m) of the target (the
+reference's within `calibrated.IK_ACCEPT`, 1e-7 m); joint rates are the reference's at the
+returned angles to ~1e-4 of their size (their Jacobian is taken up to a last Newton step
+away; see `fastchain`). Errors are identical by construction: whenever a fast check finds a
+target outside the workspace, an angle outside the joint limits or a singular Jacobian, the
+numpy function is called on the same input and raises its own `UnreachableError` /
+`JointLimitError` / `KinematicsError` (should it not raise, a disagreement within rounding at
+a boundary, its result is returned).
 
 Flat vectors are leg-major, as ``array.reshape(-1)`` of the ``(n_legs, 3)`` arrays: positions
 ``x, y, z`` [m] / velocities [m/s] per leg, joints ``root, shoulder, knee`` [rad] / [rad/s].
@@ -39,7 +44,7 @@ from crawler_motion.errors import KinematicsError, TrajectoryError
 from crawler_motion.model import kinematics
 from crawler_motion.model.config import RobotConfig
 from crawler_motion.model.leg_geometry import joint_frames
-from crawler_motion.motion.fastchain import ScalarLeg, Solution
+from crawler_motion.motion.fastchain import ScalarLeg
 from crawler_motion.motion.trajectory import Piecewise
 
 __all__ = ["DEGREE", "FastKinematics", "Track", "joint_targets"]
@@ -146,12 +151,13 @@ class FastKinematics:
 
     Same conventions, limits, tolerances and errors as the numpy functions (see the module
     docstring for how errors are raised). With calibrated legs an instance keeps state between
-    calls: each leg's warm start (`fastchain.ScalarLeg`; results depend on the previous call at
-    the rounding level only) and the Jacobian of the angles `inverse` returned last, which
-    `velocities` reuses when given exactly those angles (otherwise it evaluates the chain).
+    calls: each leg's last solution (`fastchain.ScalarLeg`), which starts the next one (results
+    depend on the previous call within `fastchain.STEP_BOUND` of the target), and the Jacobian
+    of its last evaluation, which `velocities` reuses when given exactly the angles `inverse`
+    returned (otherwise it evaluates the chain at the given angles).
     """
 
-    __slots__ = ("_chains", "_legs", "_lim", "_solved", "l1", "l2", "l3", "n_legs", "robot")
+    __slots__ = ("_chains", "_kept", "_legs", "_lim", "l1", "l2", "l3", "n_legs", "robot")
 
     def __init__(self, robot: RobotConfig) -> None:
         self.robot = robot
@@ -166,16 +172,20 @@ class FastKinematics:
         eps = kinematics.REACH_EPS
         lower = [float(x) for x in np.broadcast_to(robot.lower, (3,))]
         upper = [float(x) for x in np.broadcast_to(robot.upper, (3,))]
+        # within these an angle needs neither wrapping to (-pi, pi] nor a limit check
+        inside = (*(max(x, math.nextafter(-_PI, 0.0)) for x in lower),
+                  *(min(x, _PI) for x in upper))
         self._lim = (d_max * (1 + eps), d_min * (1 - eps), l2 * l2, l3 * l3, 2 * l2 * l3,
-                     tuple(lower), tuple(upper))
+                     tuple(lower), tuple(upper), inside)
         geometry = robot.geometry if robot.calibrated else None
         self._chains = None if geometry is None else tuple(
             ScalarLeg(joint_frames(geometry.params[i], robot.hips[i],
                                    float(robot.neutral_yaw[i]))) for i in range(self.n_legs))
-        #: per calibrated leg: the angles `inverse` returned last and their `Solution`
-        self._solved: list[tuple[tuple[float, ...], Solution] | None] = [None] * self.n_legs
+        #: per calibrated leg: the angles `inverse` returned last if they are its solution
+        self._kept: list[tuple[float, ...] | None] = [None] * self.n_legs
 
     def _reference_ik(self, feet: Sequence[float], check: bool) -> list[float]:
+        self._kept = [None] * self.n_legs
         arr = np.asarray(feet, dtype=float)
         if arr.size == 3 * self.n_legs:
             arr = arr.reshape(self.n_legs, 3)
@@ -186,52 +196,71 @@ class FastKinematics:
         if len(feet) != 3 * self.n_legs:
             return self._reference_ik(feet, check)  # raises the shape error
         chains = self._chains
-        d_hi, d_lo, l2sq, l3sq, den, lower, upper = self._lim
+        d_hi, d_lo, l2sq, l3sq, den, _, _, inside = self._lim
+        lo0, lo1, lo2, hi0, hi1, hi2 = inside
         l1, l2, l3 = self.l1, self.l2, self.l3
+        kept = self._kept
         out: list[float] = []
         for i, (hx, hy, hz, yaw0, sign) in enumerate(self._legs):
             j = 3 * i
-            qx = feet[j] - hx
-            qy = feet[j + 1] - hy
-            w = feet[j + 2] - hz
-            r = math.hypot(qx, qy)
-            u = r - l1
-            d2 = u * u + w * w
-            d = math.sqrt(d2)
-            # calibrated legs: the closed form only starts the refinement, which decides
-            if not ((chains is not None or d_lo <= d <= d_hi)
-                    and r >= kinematics.AXIS_EPS):  # also NaN / inf
-                return self._reference_ik(feet, check)
-            ck = (d2 - l2sq - l3sq) / den
-            ck = -1.0 if ck < -1.0 else (1.0 if ck > 1.0 else ck)
-            knee = sign * math.acos(ck)
-            shoulder = _wrap(math.atan2(w, u) + math.atan2(l3 * math.sin(knee),
-                                                           l2 + l3 * math.cos(knee)))
-            root = _wrap(math.atan2(qy, qx) - yaw0)
-            angles = (root, shoulder, knee)
-            if chains is not None:
-                solved = chains[i].solve((feet[j], feet[j + 1], feet[j + 2]), angles, sign)
-                if solved is None:
+            fx, fy, fz = feet[j], feet[j + 1], feet[j + 2]
+            angles = None if chains is None else chains[i].warm(fx, fy, fz)
+            if angles is None:
+                qx = fx - hx
+                qy = fy - hy
+                w = fz - hz
+                r = math.hypot(qx, qy)
+                u = r - l1
+                d2 = u * u + w * w
+                d = math.sqrt(d2)
+                # calibrated legs: the closed form only starts the refinement, which decides
+                if not ((chains is not None or d_lo <= d <= d_hi)
+                        and r >= kinematics.AXIS_EPS):  # also NaN / inf
                     return self._reference_ik(feet, check)
-                angles = (_wrap(solved[0]), _wrap(solved[1]), _wrap(solved[2]))
-            start = len(out)
-            for k, angle in enumerate(angles):
-                lo, hi = lower[k], upper[k]
-                if angle < lo:
-                    if angle >= lo - kinematics.LIMIT_EPS:
-                        angle = lo
-                    elif check:
+                ck = (d2 - l2sq - l3sq) / den
+                ck = -1.0 if ck < -1.0 else (1.0 if ck > 1.0 else ck)
+                knee = sign * math.acos(ck)
+                shoulder = _wrap(math.atan2(w, u) + math.atan2(l3 * math.sin(knee),
+                                                               l2 + l3 * math.cos(knee)))
+                root = _wrap(math.atan2(qy, qx) - yaw0)
+                angles = (root, shoulder, knee)
+                if chains is not None:
+                    angles = chains[i].cold(fx, fy, fz, angles, sign)
+                    if angles is None:
                         return self._reference_ik(feet, check)
-                elif angle > hi:
-                    if angle <= hi + kinematics.LIMIT_EPS:
-                        angle = hi
-                    elif check:
-                        return self._reference_ik(feet, check)
-                out.append(angle)
-            if chains is not None:  # its Jacobian serves `velocities` at exactly these angles
-                kept = tuple(out[start:])
-                self._solved[i] = (kept, solved) if kept == angles else None
+            a0, a1, a2 = angles
+            if lo0 <= a0 <= hi0 and lo1 <= a1 <= hi1 and lo2 <= a2 <= hi2:
+                out += angles
+                kept[i] = angles
+            else:
+                wrapped = self._limited(angles, check)
+                if wrapped is None:
+                    return self._reference_ik(feet, check)
+                out += wrapped
+                kept[i] = angles if wrapped == angles else None
         return out
+
+    def _limited(self, angles: tuple[float, ...], check: bool) -> tuple[float, ...] | None:
+        """``angles`` wrapped to (-pi, pi] and set onto a limit they exceed by at most
+        `kinematics.LIMIT_EPS`; None when one is farther out and ``check`` is set."""
+        lower, upper = self._lim[5], self._lim[6]
+        out = []
+        for k, angle in enumerate(angles):
+            if not -_PI < angle <= _PI:
+                angle = _wrap(angle)
+            lo, hi = lower[k], upper[k]
+            if angle < lo:
+                if angle >= lo - kinematics.LIMIT_EPS:
+                    angle = lo
+                elif check:
+                    return None
+            elif angle > hi:
+                if angle <= hi + kinematics.LIMIT_EPS:
+                    angle = hi
+                elif check:
+                    return None
+            out.append(angle)
+        return tuple(out)
 
     def velocities(self, angles: Sequence[float], foot_velocity: Sequence[float]
                    ) -> list[float]:
@@ -271,20 +300,31 @@ class FastKinematics:
         """`inverse` (limits checked) then `velocities`: joint angles [rad] and rates [rad/s]
         (flat) for foot positions [m] and velocities [m/s] (flat)."""
         q = self.inverse(feet)
+        chains = self._chains
+        if chains is not None and len(foot_velocity) == 3 * self.n_legs:
+            kept = self._kept
+            v = foot_velocity
+            out: list[float] = []
+            for i, chain in enumerate(chains):  # the angles just returned: no comparison
+                j = 3 * i
+                rates = (None if kept[i] is None
+                         else chain.rates_last(v[j], v[j + 1], v[j + 2]))
+                if rates is None:
+                    return q, self.velocities(q, foot_velocity)
+                out += rates
+            return q, out
         return q, self.velocities(q, foot_velocity)
 
     def _calibrated_rates(self, angles: Sequence[float], foot_velocity: Sequence[float]
                           ) -> list[float]:
         assert self._chains is not None
         out: list[float] = []
-        solved = self._solved
+        kept = self._kept
         for i, chain in enumerate(self._chains):
             j = 3 * i
             q = (angles[j], angles[j + 1], angles[j + 2])
             v = (foot_velocity[j], foot_velocity[j + 1], foot_velocity[j + 2])
-            last = solved[i]
-            rates = (chain.rates_at(last[1], v) if last is not None and last[0] == q
-                     else chain.rates(q, v))
+            rates = chain.rates_last(*v) if kept[i] == q else chain.rates(q, v)
             if rates is None:
                 return self._reference_rates(angles, foot_velocity)
             out.extend(rates)

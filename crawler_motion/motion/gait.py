@@ -14,121 +14,30 @@ the spec's half step: the first pair swings from the stride middle to the front 
 
 from __future__ import annotations
 
+import copy
 import math
-from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from crawler_motion.errors import GaitError, KinematicsError
-from crawler_motion.model.config import Config, GaitConfig, RobotConfig
+from crawler_motion.model.config import Config, RobotConfig
 from crawler_motion.model.kinematics import inverse_kinematics, joint_velocities
-from crawler_motion.motion.trajectory import (
-    Piecewise,
-    Segment,
-    SwingShape,
-    rest_segment,
-    swing_segments,
-)
-from crawler_motion.motion.walk_options import (
-    OPTIONS,
-    clearance_error,
-    stance_time_error,
-    stance_time_range,
-)
+from crawler_motion.motion.slot import Slot, SlotBuilder, SlotPlan
+from crawler_motion.motion.sway import creep_order
+from crawler_motion.motion.trajectory import Piecewise
+from crawler_motion.motion.walk_options import is_crawl, sways
+from crawler_motion.motion.walk_params import WalkParams, validate_params
+
+__all__ = ["CHECK_PERIOD", "GaitSequencer", "Slot", "SlotPlan", "WalkParams", "WalkPlan",
+           "check_trajectories", "iter_walk", "plan_walk", "standing_pose", "validate_params"]
 
 #: Sampling period used to check a planned walk against the workspace and the limits [s].
 CHECK_PERIOD = 0.005
 #: Relative tolerance of the joint velocity check of a planned walk (rounding only).
 VELOCITY_EPS = 1e-9
-#: Smallest arc/lift ratio for profiles with a junction speed at B (below it the arc dips under
-#: B's height: with the shipped smooth profile the bound is 0.0245).
-MIN_ARC_RATIO = 0.05
-
-
-@dataclass(frozen=True)
-class WalkParams:
-    """Parameters of a walk. Lengths in m, angles in rad, times in s."""
-
-    gait: str = "diagonal"
-    profile: str = "smooth"
-    stride: float = 0.06  # foot travel relative to the body during one stance [m]
-    heading: float = 0.0  # direction of travel in base_link [rad] (0 forward, pi/2 left)
-    turn: float = 0.0  # body yaw per step (one gait cycle) [rad], + counter-clockwise
-    lift: float = 0.01
-    arc: float = 0.01
-    swing_time: float = 0.6
-    stance_time: float | None = None  # None: (groups - 1) x swing_time
-    body_height: float | None = None  # None: the configured standing height
-
-    @classmethod
-    def defaults(cls, gait_cfg: GaitConfig, **overrides: object) -> WalkParams:
-        """Walk parameters from the config defaults, with ``overrides``."""
-        base = cls(gait=gait_cfg.gait, profile=gait_cfg.profile, stride=gait_cfg.stride,
-                   lift=gait_cfg.lift, arc=gait_cfg.arc, swing_time=gait_cfg.swing_time,
-                   stance_time=None)
-        return replace(base, **overrides)  # type: ignore[arg-type]
-
-
-def validate_params(params: WalkParams, cfg: Config) -> WalkParams:
-    """Check ranges and consistency; return params with ``stance_time`` resolved.
-
-    Raises `GaitError` naming the field, its value and the allowed range.
-    """
-    g = cfg.gait
-    if params.gait not in g.gaits:
-        raise GaitError(f"gait '{params.gait}' unknown; choose one of {sorted(g.gaits)}")
-    if params.profile not in g.profiles:
-        raise GaitError(f"profile '{params.profile}' unknown; choose one of {sorted(g.profiles)}")
-    for name in ("stride", "heading", "turn", "lift", "arc", "swing_time"):
-        value = getattr(params, name)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
-                value):
-            raise GaitError(f"{name} must be a finite number, got {value!r}")
-
-    def in_range(name: str, value: float, lo: float, hi: float, unit: str) -> None:
-        if not lo <= value <= hi:
-            raise GaitError(f"{name} = {value} {unit} is outside [{lo}, {hi}] {unit}")
-
-    for name in ("stride", "turn", "lift", "arc"):
-        in_range(name, getattr(params, name), *OPTIONS[name].range(cfg), OPTIONS[name].unit)
-    clearance = clearance_error(cfg, params.lift, params.arc)
-    if clearance is not None:
-        raise GaitError(clearance)
-    if params.profile in g.profiles and g.profiles[params.profile].v_b > 0 and (
-            params.arc < MIN_ARC_RATIO * params.lift):
-        raise GaitError(f"arc = {params.arc} m: the {params.profile} profile reaches B still "
-                        f"rising and needs arc >= {MIN_ARC_RATIO} x lift = "
-                        f"{MIN_ARC_RATIO * params.lift:.4g} m to stay above B on the arc")
-    in_range("swing_time", params.swing_time, *OPTIONS["swing_time"].range(cfg), "s")
-    stance = stance_time_range(cfg, params.gait, params.swing_time)[0] if (
-        params.stance_time is None) else params.stance_time
-    if isinstance(stance, bool) or not isinstance(stance, (int, float)) or not math.isfinite(
-            stance):
-        raise GaitError(f"stance_time must be a finite number, got {stance!r}")
-    stance_error = stance_time_error(cfg, params.gait, params.swing_time, stance)
-    if stance_error is not None:
-        raise GaitError(stance_error)
-    height = cfg.robot.body_height if params.body_height is None else params.body_height
-    lo, hi = OPTIONS["body_height"].range(cfg)
-    if not (isinstance(height, (int, float)) and math.isfinite(height) and lo <= height <= hi):
-        raise GaitError(f"body_height = {height} m is outside [{lo}, {hi}] m")
-    return replace(params, stance_time=float(stance), body_height=float(height))
-
-
-@dataclass(frozen=True)
-class Slot:
-    """One slot of a walk: ``group`` swings, everybody else (and the group after touch-down,
-    during the dwell) pushes the body. ``legs`` holds one trajectory per leg, in slot time."""
-
-    kind: str  # "start", "steady", "stop"
-    group: tuple[int, ...]
-    offsets_start: np.ndarray  # (n_legs, 2) [m]
-    offsets_end: np.ndarray  # (n_legs, 2) [m]
-    legs: tuple[Piecewise, ...]
-    duration: float
-    swing_time: float
-    params: WalkParams
 
 
 class GaitSequencer:
@@ -144,9 +53,20 @@ class GaitSequencer:
         self.params = validate_params(params, cfg)
         self.offsets = np.zeros((self.robot.n_legs, 2))
         self.phase = "standing"  # standing -> start -> steady -> stop -> standing
-        self._group_index = 0  # next group to swing (index into the gait table)
+        self._group_index = 0  # next group to swing (index into `_order`)
+        self._order = tuple(range(self.n_groups))  # swing order of the walk (gait table indices)
         self._count = 0  # slots done in the current phase
         self._slot_params = self.params  # parameters of the last planned slot
+        self._builder = SlotBuilder(cfg)  # joins each slot's trajectories to the last
+
+    def __copy__(self) -> GaitSequencer:
+        """A copy that plans on without touching this one (the planner tries the next slot on
+        a copy): the slot builder's state is copied too (its arrays are replaced, never
+        changed in place)."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new._builder = copy.copy(self._builder)
+        return new
 
     @property
     def n_groups(self) -> int:
@@ -198,6 +118,14 @@ class GaitSequencer:
             if stopping:
                 return None
             self.phase, self._count, self._group_index = "start", 0, 0
+            self._order = self._swing_order(p)
+            self._builder.reset(self.robot.standing_feet(p.body_height))
+            if self._sways(p):  # sway over the first support before a foot lifts
+                slot_time, _, _ = self._fractions(p)
+                zero = np.zeros_like(self.offsets)
+                return self._builder.build(SlotPlan(
+                    "start", (), self._group(0), (zero, zero, zero), slot_time - p.swing_time,
+                    0.0, 0.0, False, True), p, self.stride_vectors(p), 0.0)
         if self.phase == "steady" and stopping:
             self.phase, self._count = "stop", 0
         if self.phase == "stop":
@@ -208,16 +136,22 @@ class GaitSequencer:
         if self.phase == "start":
             beta = 1.0 / (2 * (n - 1))
             tau = 0.5 - e + beta * e / b - (n - 2 - k) * (b - beta)
-            target, inc = tau, beta
+            target, inc, rate = tau, beta, (k + 1) / (n - 1)
         elif self.phase == "steady":
-            target, inc = 0.5, b
+            target, inc, rate = 0.5, b, 1.0
         else:  # stop: the group that swung last must reach 0 over n - 1 slots
             beta = (0.5 - e) / (n - 1)
             target, inc = beta * e / b + (n - 2 - k) * beta, beta
-        groups = self.cfg.gait.gaits[p.gait]
-        group = tuple(self.robot.legs.index(leg) for leg in groups[self._group_index])
-        slot = self._build(group, target, inc, stride, slot_time, p)
-        kind = self.phase
+            rate = 1.0 - (k + 1) / (n - 1)
+        group = self._group(self._group_index)
+        swinging = np.isin(np.arange(self.robot.n_legs), group)
+        inc_swing = inc * p.swing_time / slot_time
+        start = self.offsets.copy()
+        mid = np.where(swinging[:, None], target * stride, start - inc_swing * stride)
+        plan = SlotPlan(self.phase, group, self._group(self._group_index + 1),
+                        (start, mid, mid - (inc - inc_swing) * stride), slot_time, p.swing_time,
+                        rate, self.phase == "stop" and k == n - 2, self._sways(p))
+        slot = self._builder.build(plan, p, stride, 1.0 / float(p.stance_time))  # type: ignore[arg-type]
         self.offsets = slot.offsets_end
         self._slot_params = p
         self._group_index = (self._group_index + 1) % n
@@ -227,45 +161,26 @@ class GaitSequencer:
         elif self.phase == "stop" and self._count == n - 1:
             self.phase, self._count = "standing", 0
             self._group_index = 0
-        return replace(slot, kind=kind)
+        return slot
 
-    def _build(self, group: tuple[int, ...], target: float, inc: float, stride: np.ndarray,
-               slot_time: float, p: WalkParams) -> Slot:
-        robot = self.robot
-        center = robot.standing_feet(p.body_height)
-        swing_time = p.swing_time
-        dwell = slot_time - swing_time
-        inc_swing = inc * swing_time / slot_time
-        inc_dwell = inc - inc_swing
-        shape = SwingShape(p.lift, p.arc, swing_time, self.cfg.gait.profiles[p.profile])
-        start = self.offsets.copy()
-        end = np.empty_like(start)
-        legs: list[Piecewise] = []
-        for i in range(robot.n_legs):
-            a = center[i].copy()
-            a[:2] += start[i]
-            segments: list[Segment]
-            if i in group:
-                touch = target * stride[i]
-                e_pt = center[i].copy()
-                e_pt[:2] += touch
-                segments = swing_segments(a, e_pt, shape)
-                mid = e_pt
-                after = touch - inc_dwell * stride[i]
-            else:
-                after_swing = start[i] - inc_swing * stride[i]
-                mid = center[i].copy()
-                mid[:2] += after_swing
-                segments = [rest_segment(a, mid, swing_time, "stance")]
-                after = after_swing - inc_dwell * stride[i]
-            if dwell > 1e-12:
-                fin = center[i].copy()
-                fin[:2] += after
-                segments.append(rest_segment(mid, fin, dwell, "stance"))
-            end[i] = after
-            legs.append(Piecewise(segments))
-        return Slot(kind="", group=group, offsets_start=start, offsets_end=end,
-                    legs=tuple(legs), duration=slot_time, swing_time=swing_time, params=p)
+    def _group(self, index: int) -> tuple[int, ...]:
+        """Leg indices of the ``index``-th group of the walk's swing order."""
+        names = self.cfg.gait.gaits[self.params.gait][self._order[index % self.n_groups]]
+        return tuple(self.robot.legs.index(leg) for leg in names)
+
+    def _sways(self, p: WalkParams) -> bool:
+        """True when the walk sways its body (`walk_options.sways`)."""
+        return sways(self.cfg, p.gait, p.swing_time, float(p.stance_time))  # type: ignore[arg-type]
+
+    def _swing_order(self, p: WalkParams) -> tuple[int, ...]:
+        """The gait table's order, or for a crawl gait walking (not only turning) the creep
+        order of `sway.creep_order` for the direction of travel."""
+        n = len(self.cfg.gait.gaits[p.gait])
+        if not is_crawl(self.cfg, p.gait) or p.stride == 0.0:
+            return tuple(range(n))
+        legs = creep_order(self.robot.standing_feet(p.body_height)[:, :2], p.heading)
+        table = [self.robot.legs.index(g[0]) for g in self.cfg.gait.gaits[p.gait]]
+        return tuple(table.index(leg) for leg in legs)
 
 
 @dataclass
@@ -276,6 +191,8 @@ class WalkPlan:
     legs: tuple[Piecewise, ...]
     starts: np.ndarray  # start time of each slot [s]
     robot: RobotConfig
+    contacts: tuple[Piecewise, ...] = ()  # the planned contact points (`Slot.contacts`)
+    sway: Piecewise | None = None  # the body's sway (`Slot.sway`)
 
     @property
     def duration(self) -> float:
@@ -286,6 +203,11 @@ class WalkPlan:
         """Foot position, velocity, acceleration ``(len(t), n_legs, 3)`` at times ``t`` [s]."""
         results = [leg.evaluate(t) for leg in self.legs]
         return tuple(np.stack([r[k] for r in results], axis=1) for k in range(3))  # type: ignore
+
+    def contact_points(self, t: np.ndarray | float) -> np.ndarray:
+        """Planned contact points ``(len(t), n_legs, 3)`` [m] (the foot centres without the
+        roll of `crawler_motion.motion.contact`): the points stance feet keep on the ground."""
+        return np.stack([leg.evaluate(t)[0] for leg in self.contacts], axis=1)
 
     def joints(self, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Joint angles [rad] and rates [rad/s], ``(len(t), n_legs, 3)``."""
@@ -299,7 +221,24 @@ class WalkPlan:
                            len(self.slots) - 1))
 
 
-def check_trajectories(robot: RobotConfig, legs: tuple[Piecewise, ...], what: str) -> None:
+class SampledPath(Protocol):
+    """What `check_trajectories` samples: a `Piecewise`, or any path with the same reading
+    interface (e.g. a body-pose move's foot paths)."""
+
+    @property
+    def t0(self) -> float: ...  # start time [s]
+
+    @property
+    def t_end(self) -> float: ...  # end time [s]
+
+    @property
+    def breaks(self) -> np.ndarray: ...  # junction times [s]
+
+    def evaluate(self, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        ...  # position [m], velocity [m/s], acceleration [m/s²]
+
+
+def check_trajectories(robot: RobotConfig, legs: Sequence[SampledPath], what: str) -> None:
     """Sample every leg (every CHECK_PERIOD and every junction), run IK with the position
     limits and check the joint rates against the velocity limits.
 
@@ -359,11 +298,13 @@ def plan_walk(cfg: Config, params: WalkParams, steps: int) -> WalkPlan:
     """
     slots = list(iter_walk(cfg, params, steps))
     starts = np.cumsum([0.0] + [s.duration for s in slots])[:-1]
-    legs = []
-    for i in range(cfg.robot.n_legs):
-        segments = [seg for slot in slots for seg in slot.legs[i].segments]
-        legs.append(Piecewise(segments))
-    plan = WalkPlan(slots=slots, legs=tuple(legs), starts=starts, robot=cfg.robot)
+    def joined(part: str) -> tuple[Piecewise, ...]:
+        return tuple(Piecewise([seg for slot in slots for seg in getattr(slot, part)[i].segments])
+                     for i in range(cfg.robot.n_legs))
+
+    plan = WalkPlan(slots=slots, legs=joined("legs"), starts=starts, robot=cfg.robot,
+                    contacts=joined("contacts"),
+                    sway=Piecewise([seg for slot in slots for seg in slot.sway.segments]))
     check_trajectories(cfg.robot, plan.legs, "the walk")
     return plan
 

@@ -13,13 +13,14 @@ lower D->E (vertical), stance E->A (straight, on the ground). Profiles:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from crawler_motion.errors import TrajectoryError
-from crawler_motion.model.config import ProfileConfig
+from crawler_motion.model.gait_config import ProfileConfig
 
 PHASES: tuple[str, ...] = ("lift", "arc", "lower", "stance")
 
@@ -187,6 +188,11 @@ class Piecewise:
         return Piecewise(self.segments, self.t0 + dt)
 
 
+#: Peak speed of a `rest_segment` in units of distance / duration (at mid-time: its
+#: symmetric sextic is the quintic ``10 u^3 - 15 u^4 + 6 u^5``).
+REST_PEAK_SPEED = 1.875
+
+
 def rest_segment(start: np.ndarray, end: np.ndarray, duration: float, phase: str = ""
                  ) -> Segment:
     """Straight sextic from ``start`` to ``end`` with v = a = 0 at both ends (any dimension)."""
@@ -194,6 +200,19 @@ def rest_segment(start: np.ndarray, end: np.ndarray, duration: float, phase: str
     s1 = np.asarray(end, dtype=float)
     zero = np.zeros_like(s0)
     coeffs = sextic_coefficients(duration, s0, zero, zero, s1, zero, zero, (s0 + s1) / 2)
+    return Segment(coeffs, float(duration), phase)
+
+
+def glide_segment(start: np.ndarray, end: np.ndarray, duration: float, v_start: np.ndarray,
+                  v_end: np.ndarray, phase: str = "") -> Segment:
+    """Straight quintic (stored as a sextic) from ``start`` to ``end`` with velocities
+    ``v_start``, ``v_end`` [m/s] and a = 0 at both ends; `rest_segment` is the case v = 0.
+    (The quintic's mid-time position is ``(s0 + s1) / 2 + 5 T (v0 - v1) / 32``.)"""
+    s0, s1 = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    v0, v1 = np.asarray(v_start, dtype=float), np.asarray(v_end, dtype=float)
+    zero = np.zeros_like(s0)
+    mid = (s0 + s1) / 2 + 5.0 * float(duration) * (v0 - v1) / 32.0
+    coeffs = sextic_coefficients(duration, s0, v0, zero, s1, v1, zero, mid)
     return Segment(coeffs, float(duration), phase)
 
 
@@ -206,6 +225,33 @@ class SwingShape:
     swing_time: float  # A->E [s]
     profile: ProfileConfig
     degree: int = 6  # 6 = sextic, 4 = the study's quartic (v = 0 junctions only)
+
+
+def restricted(segment: Segment, start: float, duration: float) -> Segment:
+    """The part of ``segment`` from ``start`` [s] lasting ``duration`` [s], as a segment of
+    its own (same polynomial, re-parametrised: ``p(u0 + (u1 - u0) v)``, binomial expansion)."""
+    u0, width = start / segment.duration, duration / segment.duration
+    c = segment.coeffs
+    deg = c.shape[-1] - 1
+    out = np.zeros_like(c)
+    for k in range(deg + 1):  # (u0 + width v)^k = sum_j C(k, j) u0^(k-j) width^j v^j
+        for j in range(k + 1):
+            out[..., j] += c[..., k] * math.comb(k, j) * u0 ** (k - j) * width ** j
+    return Segment(out, _check_duration(duration), segment.phase)
+
+
+def minus_path(segments: Sequence[Segment], path: Segment) -> list[Segment]:
+    """``segments`` (laid end to end over ``path``'s duration) minus ``path``: e.g. a foot's
+    path in the world seen from a body that moves by ``path`` [m]."""
+    out, t = [], 0.0
+    for seg in segments:
+        part = restricted(path, t, seg.duration).coeffs
+        width = max(part.shape[-1], seg.coeffs.shape[-1])
+        pad = [np.pad(x, [(0, 0)] * (x.ndim - 1) + [(0, width - x.shape[-1])])
+               for x in (seg.coeffs, part)]
+        out.append(Segment(pad[0] - pad[1], seg.duration, seg.phase))
+        t += seg.duration
+    return out
 
 
 def swing_segments(a: np.ndarray, e: np.ndarray, shape: SwingShape) -> list[Segment]:

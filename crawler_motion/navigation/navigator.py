@@ -55,7 +55,7 @@ class NavigatorSettings:
     max_yaw_rate: float = 0.2  # [rad/s]
     goal_tolerance: float = 0.05  # [m]
     slow_radius: float = 0.2  # speed falls linearly to 1/4 within this distance [m]
-    margin: float = 0.05  # added to the virtual radius [m]
+    margin: float = 0.10  # added to the virtual radius [m]
     lookahead: float = 0.6  # [m]
     max_turn: float = math.radians(100.0)  # [rad]
     timeout: float = 300.0  # [s]

@@ -34,7 +34,7 @@ NAVIGATOR_PARAMETERS: tuple[ParamSpec, ...] = (
               minimum=0.005, maximum=1.0, unit="m"),
     ParamSpec("slow_radius", 0.2, "speed falls to a quarter within this distance of the goal "
               "[m]", read_only=True, minimum=0.0, maximum=5.0, unit="m"),
-    ParamSpec("margin", 0.05, "clearance added to the virtual radius [m]", read_only=True,
+    ParamSpec("margin", 0.10, "clearance added to the virtual radius [m]", read_only=True,
               minimum=0.0, maximum=1.0, unit="m"),
     ParamSpec("lookahead", 0.6, "obstacle cells farther than this do not block [m]",
               read_only=True, minimum=0.1, maximum=10.0, unit="m"),

@@ -19,6 +19,7 @@ from typing import Any
 from crawler_motion.errors import CommandError, GaitError
 from crawler_motion.model.config import Config
 from crawler_motion.model.joint_state import finite_float
+from crawler_motion.motion.body_pose import BodyPose
 from crawler_motion.motion.gait import WalkParams, validate_params
 from crawler_motion.motion.walk_options import (
     MAX_STEPS,
@@ -38,7 +39,7 @@ WALK_KEYS: tuple[str, ...] = tuple(option.name for option in options_of("walk"))
 #: The commands and the keys each one accepts (besides ``command``).
 COMMAND_KEYS: dict[str, tuple[str, ...]] = {
     kind: tuple(option.name for option in options_of(kind))
-    for kind in ("stand", "walk", "stop", "sit", "estop", "reset")
+    for kind in ("stand", "walk", "pose", "stop", "sit", "estop", "reset")
 }
 #: Twists slower than this (m/s, rad/s) count as zero: "stop" for a cmd_vel walk.
 ZERO_SPEED = 1e-4
@@ -60,13 +61,14 @@ class Command:
     ``kind`` is one of `COMMAND_KEYS`. For ``stand``, ``body_height`` [m] (None: the default).
     For ``walk``, ``steps`` (None: until stopped) and ``overrides``: the walk parameters the
     command sets, as ``(name, value)`` pairs; the others come from the planner's current
-    parameters (see `apply`).
+    parameters (see `apply`). For ``pose``, ``pose``: the body pose (keys left out are 0).
     """
 
     kind: str
     body_height: float | None = None
     steps: int | None = None
     overrides: tuple[tuple[str, Any], ...] = ()
+    pose: BodyPose | None = None
 
     def apply(self, base: WalkParams, cfg: Config) -> WalkParams:
         """``base`` with this command's overrides, validated (``stance_time`` resolved).
@@ -182,7 +184,8 @@ def parse_gait_command(text: str, cfg: Config) -> Command:
 
     Checks every key and value on its own (types, finiteness, config ranges) and the pairs
     the command sets together (lift + arc, stance vs swing time); the complete parameter set
-    is checked again with `gait.validate_params` when the command is applied (`Command.apply`).
+    is checked again with `gait.validate_params` when the command is applied (`Command.apply`);
+    a pose, against the standing height and the feet's workspace when the planner moves to it.
     """
     data = _load_object(text)
     kind = _command_kind(data)
@@ -190,6 +193,8 @@ def parse_gait_command(text: str, cfg: Config) -> Command:
               for key in COMMAND_KEYS[kind] if key in data}
     if kind == "stand":
         return Command(kind="stand", body_height=values.get("body_height"))
+    if kind == "pose":
+        return Command(kind="pose", pose=BodyPose(**values))
     if kind != "walk":
         return Command(kind=kind)
     steps = values.pop("steps", None)

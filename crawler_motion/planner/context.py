@@ -1,4 +1,5 @@
-"""What the planner's parts share: state, held pose, pause flag and the status journal."""
+"""What the planner's parts share: state, held pose, body pose, pause flag and the status
+journal."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from typing import NoReturn
 import numpy as np
 
 from crawler_motion.errors import CommandError
+from crawler_motion.motion.body_pose import NEUTRAL, BodyPose
 from crawler_motion.planner.state import IDLE, PlannerState
 
 #: Events kept for `Journal.pop_events` (the oldest are dropped).
@@ -65,7 +67,9 @@ class Journal:
 class PlannerContext:
     """State, the held pose, the last target, the pause flag and the journal of one planner.
 
-    ``n_joints`` is the number of joints of the targets.
+    ``n_joints`` is the number of joints of the targets. ``body_pose`` is the standing body's
+    pose (`body_pose.BodyPose`, relative to the standing height): set by pose moves (their
+    last target's pose while one runs), neutral again after a stand or sit joint move.
     """
 
     def __init__(self, n_joints: int) -> None:
@@ -75,6 +79,7 @@ class PlannerContext:
         self.pause_reason = ""
         self.hold: JointTarget | None = None
         self.last_target: JointTarget | None = None
+        self.body_pose: BodyPose = NEUTRAL
         self.journal = Journal()
         self.zero = np.zeros(n_joints)
         self.zero.setflags(write=False)

@@ -2,7 +2,7 @@
 
 `PlannerCore` is driven by a monotonic time argument ``now`` [s] (steady clock in the node), so
 it is deterministic to test; its states and transitions are `state.PlannerState`. It composes
-`moves.MoveController` (stand / sit), `walk.WalkController` (the gait slots of a walk, planned
+`moves.MoveController` (stand, sit, pose), `walk.WalkController` (the gait slots of a walk, planned
 ahead by `next_slot.AheadJob`), `requests.WalkRequests` (walk commands and twists, a new walk
 checked as a whole by `upfront.UpfrontCheck`) and `context.PlannerContext` (state, held pose,
 pause flag, status journal).
@@ -33,8 +33,9 @@ from crawler_motion.errors import (
     TrajectoryError,
 )
 from crawler_motion.model.config import Config
-from crawler_motion.motion.gait import WalkParams, standing_pose, validate_params
+from crawler_motion.motion.gait import WalkParams, validate_params
 from crawler_motion.planner.commands import Command, parse_gait_command
+from crawler_motion.planner.contacts import ContactMonitor
 from crawler_motion.planner.context import JointTarget, PlannerContext
 from crawler_motion.planner.driver_view import DriverChange, DriverReport, DriverView
 from crawler_motion.planner.moves import MEASUREMENT_MAX_AGE, MoveController, sitting_pose
@@ -47,7 +48,6 @@ from crawler_motion.planner.state import (
     IDLE,
     MOVING,
     SITTING,
-    STANDING,
     WALK_STATES,
     PlannerState,
 )
@@ -84,6 +84,7 @@ class PlannerCore:
         self.moves = MoveController(cfg, self.ctx, measurement_max_age)
         self.resumer = Resumer(cfg, self.ctx, self.walk, self.moves)
         self.driver = DriverView()
+        self.contacts = ContactMonitor(self.robot)  # fed by the node with the joint states
         self._stand_height = self.robot.body_height
         self._now = -math.inf
         self._last_tick = -math.inf
@@ -154,13 +155,17 @@ class PlannerCore:
             self._stop(now)
         elif cmd.kind == "stand":
             height = self.defaults.body_height if cmd.body_height is None else cmd.body_height
-            pose = standing_pose(self.cfg, height)
-            self.moves.start(now, pose, STANDING, "stand")
+            self.moves.stand(now, height, self._stand_height, self.resumer.active)
             self.walk.clear()
+            self.resumer.clear()  # the stand replaces a due resume
             self._stand_height = float(height)
         elif cmd.kind == "sit":
             self.moves.start(now, self.sitting, SITTING, "sit")
             self.walk.clear()
+            self.resumer.clear()
+        elif cmd.kind == "pose":
+            assert cmd.pose is not None
+            self.moves.pose(now, cmd.pose, self._stand_height)
         elif cmd.kind == "walk":
             self.requests.walk(cmd, self._base(), self.moves.target, now)
         else:  # pragma: no cover - parse_gait_command only builds known kinds

@@ -1,4 +1,6 @@
-"""Stand and sit: rest-sextic joint-space moves from the measured pose to a fixed pose."""
+"""Stand, sit and pose moves: rest-sextic joint-space moves from the measured pose to a fixed
+pose, and body-pose moves (`pose_move.PoseMove`: every foot fixed on the ground) while
+standing."""
 
 from __future__ import annotations
 
@@ -6,20 +8,21 @@ import math
 
 import numpy as np
 
-from crawler_motion.errors import CommandError, ConfigError, KinematicsError
+from crawler_motion.errors import CommandError, ConfigError, KinematicsError, PoseError
 from crawler_motion.model.config import Config, RobotConfig
 from crawler_motion.model.kinematics import check_limits, inverse_kinematics
+from crawler_motion.motion.body_pose import NEUTRAL, BodyPose
 from crawler_motion.motion.fastpath import Track
-from crawler_motion.motion.trajectory import Piecewise, rest_segment
+from crawler_motion.motion.gait import standing_pose
+from crawler_motion.motion.trajectory import REST_PEAK_SPEED, Piecewise, rest_segment
 from crawler_motion.planner.context import JointTarget, PlannerContext
-from crawler_motion.planner.state import ESTOP, MOVING, WALK_STATES, PlannerState
+from crawler_motion.planner.pose_move import PoseMove
+from crawler_motion.planner.state import ESTOP, MOVING, STANDING, WALK_STATES, PlannerState
 
 #: Shortest stand / sit move [s].
 MIN_MOVE_TIME = 1.0
 #: Peak joint speed of a stand / sit move as a fraction of the joint's velocity limit.
 MOVE_SPEED_FRACTION = 0.5
-#: Peak speed of a rest sextic (v = a = 0 at both ends) in units of distance / duration.
-REST_PEAK_SPEED = 1.875
 #: A measurement older than this [s] cannot start a stand / sit move.
 MEASUREMENT_MAX_AGE = 1.0
 #: Measured angles up to this far outside a limit [rad] start a move from the limit.
@@ -101,8 +104,9 @@ class JointMove:
 
 
 class MoveController:
-    """Starts (or refuses) stand / sit moves from the latest measured pose and evaluates the
-    move in progress per tick, ending it in its end state via ``ctx``.
+    """Starts (or refuses) stand / sit moves from the latest measured pose and pose moves from
+    the held pose, and evaluates the move in progress per tick, ending it in its end state via
+    ``ctx`` (which also keeps the body pose, ``ctx.body_pose``).
 
     ``measurement_max_age`` [s] is the oldest measurement a move starts from.
     """
@@ -111,19 +115,31 @@ class MoveController:
         self.cfg = cfg
         self.ctx = ctx
         self.measurement_max_age = float(measurement_max_age)
-        self.move: JointMove | None = None
+        self.move: JointMove | PoseMove | None = None
         self._target = ""
         self._measured: np.ndarray | None = None
         self._measured_at = -math.inf
 
     @property
     def target(self) -> str:
-        """What the current (or last) move does: "stand", "sit" ("" before the first)."""
+        """What the current (or last) move does: "stand", "sit", "pose" ("" before the
+        first)."""
         return self._target
 
     def clear(self) -> None:
         """Abandon the move in progress."""
         self.move = None
+
+    def interrupt(self, at: float) -> JointMove | None:
+        """Take the move in progress off at steady time ``at`` [s] (an interruption): a stand /
+        sit move is returned, to be resumed; a pose move ends where its last target was, in
+        STANDING at that pose (it never restarts by itself)."""
+        move, self.move = self.move, None
+        if isinstance(move, PoseMove):
+            self.ctx.body_pose = move.current
+            self.ctx.enter(STANDING, at)
+            return None
+        return move
 
     def set_measured(self, positions: np.ndarray, now: float) -> None:
         """The latest measured joint angles (12 or (n_legs, 3)) [rad], at steady time ``now``."""
@@ -160,10 +176,10 @@ class MoveController:
             return f"{what} refused: e-stop latched; send reset, then stand"
         if ctx.state in WALK_STATES:
             return f"{what} refused while {ctx.state}: send stop and wait for STANDING"
-        if ctx.state == MOVING:
-            return f"{what} refused: a {self._target} move is in progress; wait for it to end"
         if ctx.paused:
             return f"{what} refused: {ctx.paused_reason()}"
+        if ctx.state == MOVING and self.move is not None:
+            return f"{what} refused: a {self._target} move is in progress; wait for it to end"
         if self._measured is None:
             return (f"{what} refused: no measured joint_states yet; the move starts from the "
                     f"measured pose")
@@ -189,8 +205,51 @@ class MoveController:
         was = self.ctx.state
         self.move = move
         self._target = what
+        self.ctx.body_pose = NEUTRAL
         self.ctx.enter(MOVING, now)
         self.ctx.journal.event("info", f"{what}: {move.duration:.2f} s joint move from {was}")
+
+    def stand(self, now: float, height: float, stand_height: float, from_measured: bool
+              ) -> None:
+        """``stand`` at ``height`` [m] from the standing ``stand_height`` [m]: while STANDING
+        posed (and not ``from_measured``: an interruption's resume was due) a pose move back
+        to the neutral pose, every foot fixed; otherwise the joint move from the measured
+        pose. Refusals raise `CommandError`."""
+        ctx = self.ctx
+        if ctx.state == STANDING and not ctx.body_pose.is_neutral and not from_measured:
+            start = ctx.body_pose.rebased(stand_height, height)
+            self._start_pose(now, start, NEUTRAL, height, "stand")
+        else:
+            self.start(now, standing_pose(self.cfg, height), STANDING, "stand")
+
+    def pose(self, now: float, pose: BodyPose, stand_height: float) -> None:
+        """Move the standing body to ``pose`` (at the standing ``stand_height`` [m]) from
+        where it is, every foot fixed; refusals raise `CommandError`."""
+        state = self.ctx.state
+        busy = state == ESTOP or state in WALK_STATES or (
+            state == MOVING and self.move is not None)
+        if state != STANDING and not busy:  # (the others are refused with their reason)
+            self.ctx.journal.refuse(f"pose refused in state {state}: the body pose is set "
+                                    f"while STANDING; send stand first", now)
+        self._start_pose(now, self.ctx.body_pose, pose, stand_height, "pose")
+
+    def _start_pose(self, now: float, start: BodyPose, end: BodyPose, height: float,
+                    what: str) -> None:
+        ctx = self.ctx
+        reason = self._refusal(now, what)
+        if reason is not None:
+            ctx.journal.refuse(reason, now)
+        try:
+            move = PoseMove(self.cfg, height, start, end, now, what)
+        except PoseError as exc:
+            ctx.journal.refuse(f"{what} refused: {exc}", now)
+        ctx.body_pose = start
+        ctx.last_target = ctx.hold  # the move starts at the held pose
+        self.move = move
+        self._target = what
+        ctx.enter(MOVING, now)
+        ctx.journal.event("info", f"{what}: {move.duration:.2f} s body move to "
+                                  f"{end.described()}, every foot fixed")
 
     def tick(self, now: float) -> JointTarget | None:
         """Joint targets of the move at steady time ``now`` [s]; at its end the held pose."""
@@ -198,10 +257,21 @@ class MoveController:
         assert move is not None
         if move.done(now):
             ctx.hold = ctx.hold_pose(move.final)
+            if isinstance(move, PoseMove):
+                ctx.body_pose = move.end
             ctx.enter(move.end_state, now)
             self.move = None
             ctx.journal.event("info", f"{move.target} done: {ctx.state}")
             return ctx.hold
-        target = move.at(now)
+        try:
+            target = move.at(now)
+        except KinematicsError as exc:  # pragma: no cover - every sample 5 ms apart was checked
+            assert ctx.last_target is not None  # set when a pose move starts
+            ctx.hold = ctx.hold_pose(ctx.last_target.positions)
+            self.interrupt(now)
+            ctx.journal.event("error", f"{move.target} stopped at {now:.3f} s: {exc}")
+            return ctx.hold
+        if isinstance(move, PoseMove):
+            ctx.body_pose = move.current
         ctx.last_target = target
         return target

@@ -4,12 +4,14 @@ Subscribes ``cmd_vel`` (geometry_msgs/Twist; linear.x, linear.y, angular.z used)
 ``gait_command`` (std_msgs/String, one JSON object, see `commands.parse_gait_command`),
 ``joint_states`` (sensor_msgs/JointState, measured) and ``/diagnostics``
 (diagnostic_msgs/DiagnosticArray: a status whose hardware_id is ``fault_hardware_id`` at level
-ERROR pauses the planner until every such status is OK or WARN again; STALE changes nothing)
-and ``driver_status`` (std_msgs/String JSON, transient local: the driver's gate state ends a
-walk, a new enable epoch resumes it from the measured pose; see `planner.driver_view`).
+ERROR pauses the planner until every such status is OK or WARN again; STALE and other robots'
+statuses change nothing: `runtime.diagnostic_names`) and ``driver_status`` (std_msgs/String
+JSON, transient local: the driver's gate state ends a walk, a new enable epoch resumes it from
+the measured pose; see `planner.driver_view`).
 Publishes ``joint_commands`` (sensor_msgs/JointState: 12 joints, position + velocity, stamped)
 at ``rate`` Hz (nothing in IDLE and ESTOP), and ``planner_status`` (std_msgs/String JSON,
-transient local) on every change and at least once a second.
+transient local) on every change and at least once a second; the foot contacts estimated from
+the joint efforts on ``foot_contacts`` and ``/diagnostics`` (`planner.contact_topics`).
 
 Joint commands are published from a `ticker.Ticker` thread on the steady clock, not from an
 rclpy timer: the executor also runs every callback, and a busy executor delays or skips timer
@@ -33,8 +35,10 @@ from __future__ import annotations
 import json
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Twist
 from rcl_interfaces.msg import SetParametersResult
@@ -49,7 +53,8 @@ from crawler_motion.errors import CommandError
 from crawler_motion.model.calibration_file import config_with_calibration
 from crawler_motion.model.config import Config, config_path, load_config
 from crawler_motion.model.joint_state import validate_joint_state
-from crawler_motion.planner.core import PlannerCore
+from crawler_motion.planner.contact_topics import ContactTopics
+from crawler_motion.planner.core import JointTarget, PlannerCore
 from crawler_motion.planner.driver_view import parse_driver_status, rate_problem
 from crawler_motion.planner.parameters import (
     CALIBRATION_SPEC,
@@ -59,6 +64,7 @@ from crawler_motion.planner.parameters import (
     planner_settings,
 )
 from crawler_motion.planner.planning_thread import AheadPlanner
+from crawler_motion.runtime.diagnostic_names import same_robot
 from crawler_motion.runtime.log import Severity, log
 from crawler_motion.runtime.parameters import ParamSpec
 from crawler_motion.runtime.ros_main import run_node
@@ -120,8 +126,11 @@ class FaultLevels:
         """Forget every status (the watched hardware_id changed)."""
         self._levels.clear()
 
-    def update(self, statuses: list[DiagnosticStatus], hardware_id: str) -> tuple[bool, str]:
-        """Record ``statuses`` of ``hardware_id`` (STALE ignored); returns (faulted, reason).
+    def update(self, statuses: list[DiagnosticStatus], hardware_id: str,
+               namespace: str = "/") -> tuple[bool, str]:
+        """Record ``statuses`` of ``hardware_id`` from the robot of ``namespace`` (STALE and
+        other robots' statuses ignored: `diagnostic_names.same_robot`); returns (faulted,
+        reason).
 
         ``reason`` joins the ERROR statuses of this message ("" if none is new here).
         """
@@ -129,7 +138,8 @@ class FaultLevels:
         reasons = []
         for status in statuses:
             level = _level(status.level)
-            if status.hardware_id != hardware_id or level == _level(DiagnosticStatus.STALE):
+            if (status.hardware_id != hardware_id or level == _level(DiagnosticStatus.STALE)
+                    or not same_robot(status.name, namespace)):
                 continue
             self._levels[status.name] = level
             if level >= error:
@@ -152,6 +162,7 @@ class PlannerNode(Node):
         process_error = set_process_priority(priority - 1) if priority > 1 else ""
         self.core = PlannerCore(self.cfg, settings.rate, defaults=settings.defaults,
                                 cmd_vel_timeout=settings.cmd_vel_timeout)
+        self.core.contacts.configure(settings.contacts)
         self._settings = settings
         self._faults = FaultLevels()
         self._repeats = RepeatFilter(LOG_REPEAT_PERIOD)
@@ -162,6 +173,8 @@ class PlannerNode(Node):
         self._joint_names = list(self.cfg.robot.joint_names)
         self._msg = JointState()
         self._msg.name = list(self._joint_names)
+        #: ``on_target(target, stamp)`` runs in the tick thread before each publication.
+        self.on_target: Callable[[JointTarget, Time], None] | None = None
         self._create_interfaces()
         self._ahead = AheadPlanner(self.core, self._lock, self._report_failure)
         self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._ahead.wake,
@@ -207,6 +220,7 @@ class PlannerNode(Node):
                                  qos_profile_sensor_data)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.create_subscription(String, "driver_status", self._on_driver_status, status_qos)
+        self._contact_topics = ContactTopics(self, self.core.contacts)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._status_timer = self.create_timer(STATUS_PERIOD, self._publish_status,
                                                clock=steady)
@@ -247,6 +261,7 @@ class PlannerNode(Node):
         with self._lock:
             self.core.set_defaults(settings.defaults)
             self.core.set_cmd_vel_timeout(settings.cmd_vel_timeout)
+            self.core.contacts.configure(settings.contacts)
             self.core.set_rate(settings.rate)
             if settings.rate != self._settings.rate:
                 self._ticker.period = 1.0 / settings.rate
@@ -281,6 +296,7 @@ class PlannerNode(Node):
             return
         with self._lock:
             self.core.set_measured(q, time.monotonic())
+        self._contact_topics.on_joint_state(msg, q)
 
     def _on_driver_status(self, msg: String) -> None:
         try:
@@ -298,7 +314,8 @@ class PlannerNode(Node):
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         with self._lock:
-            faulted, reason = self._faults.update(msg.status, self._settings.fault_hardware_id)
+            faulted, reason = self._faults.update(msg.status, self._settings.fault_hardware_id,
+                                                  self.get_namespace())
             if faulted:
                 self.core.set_paused(True, time.monotonic(), reason or self.core.pause_reason)
             else:
@@ -314,6 +331,8 @@ class PlannerNode(Node):
             if target is not None:
                 msg = self._msg
                 msg.header.stamp = self.get_clock().now().to_msg()
+                if self.on_target is not None:  # the composed controller's driver, at once
+                    self.on_target(target, msg.header.stamp)
                 msg.position = target.positions.tolist()
                 msg.velocity = target.velocities.tolist()
                 self._pub_joints.publish(msg)

@@ -8,11 +8,12 @@ of a complete set of values, used at start-up and on every parameter change.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from crawler_motion.errors import CommandError, ConfigError, GaitError
 from crawler_motion.model.config import Config
+from crawler_motion.motion.contact_estimation import ContactSettings
 from crawler_motion.motion.gait import WalkParams, validate_params
 from crawler_motion.motion.walk_options import WALK_OPTIONS, OptionType, WalkOption
 from crawler_motion.runtime.parameters import ParamSpec, validate_parameters
@@ -39,6 +40,7 @@ class PlannerSettings:
     fault_hardware_id: str
     tick_priority: int  # 0 or a SCHED_FIFO priority
     defaults: WalkParams  # gait defaults; body_height resolved
+    contacts: ContactSettings = field(default_factory=ContactSettings)  # foot contacts
 
 
 def _config_file_check(value: str) -> str | None:
@@ -67,6 +69,18 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("tick_priority", 0, "0: normal scheduling; 1-99: SCHED_FIFO priority of the tick "
               "thread, the rest of the process one below (needs CAP_SYS_NICE)", read_only=True,
               minimum=TICK_PRIORITY_RANGE[0], maximum=TICK_PRIORITY_RANGE[1]),
+    ParamSpec("contact_threshold", ContactSettings.threshold, "foot contact (touch-down) when "
+              "the foot force estimated from the efforts reaches this [N] (docs/contact.md)",
+              minimum=0.01, maximum=100.0, unit="N"),
+    ParamSpec("contact_hysteresis", ContactSettings.hysteresis, "lift-off when the force "
+              "drops below contact_threshold minus this [N]; at most contact_threshold",
+              minimum=0.0, maximum=100.0, unit="N"),
+    ParamSpec("contact_drive_inertia", ContactSettings.drive_inertia, "reflected rotor inertia "
+              "of each joint drive, removed from the efforts before the foot force [kg m²]",
+              minimum=0.0, maximum=1.0, unit="kg m²"),
+    ParamSpec("contact_period", ContactSettings.period, "feedback period of the motor manager "
+              "(the DBC's position cycle time) [s]: joint-state times are whole multiples of "
+              "it", minimum=0.001, maximum=0.1, unit="s"),
 )
 
 
@@ -112,7 +126,15 @@ def planner_settings(specs: Sequence[ParamSpec], values: Mapping[str, Any], cfg:
         cfg.robot.standing_feet(params.body_height)
     except (GaitError, ConfigError) as exc:
         raise CommandError(f"gait defaults refused: {exc}") from exc
+    try:
+        contacts = ContactSettings(float(values["contact_threshold"]),
+                                   float(values["contact_hysteresis"]),
+                                   float(values["contact_drive_inertia"]),
+                                   float(values["contact_period"]))
+    except ConfigError as exc:
+        raise CommandError(str(exc)) from exc
     return PlannerSettings(config_file=values[CONFIG_FILE], rate=float(values["rate"]),
                            cmd_vel_timeout=float(values["cmd_vel_timeout"]),
                            fault_hardware_id=values["fault_hardware_id"],
-                           tick_priority=values["tick_priority"], defaults=params)
+                           tick_priority=values["tick_priority"], defaults=params,
+                           contacts=contacts)

@@ -53,6 +53,7 @@ class WalkRequests:
         if state == STANDING:
             if ctx.paused:
                 ctx.journal.refuse(f"walk refused: {ctx.paused_reason()}", now)
+            self._refuse_posed("walk refused", now)
             base = standing_base
         else:
             base = ctl.pending or ctl.params
@@ -105,10 +106,18 @@ class WalkRequests:
             ctx.journal.refuse(f"cmd_vel ignored in state {ctx.state}: {hint}", now)
         if ctx.paused:
             ctx.journal.refuse(ctx.paused_reason(), now)
+        self._refuse_posed("cmd_vel ignored", now)
         params = self._from_twist(vx, vy, wz, standing_base, now)
         self._check_upfront(params, 1, now)
         ctl.start(params, None, "cmd_vel", now)
         ctl.last_twist = now
+
+    def _refuse_posed(self, what: str, now: float) -> None:
+        """Refuse a walk from a posed body: walks start from the neutral standing pose."""
+        pose = self.ctx.body_pose
+        if not pose.is_neutral:
+            self.ctx.journal.refuse(f"{what}: the body is posed ({pose.described()}); walks "
+                                    f"start from the neutral pose: send stand first", now)
 
     def _from_twist(self, vx: float, vy: float, wz: float, base: WalkParams, now: float
                     ) -> WalkParams:

@@ -4,7 +4,8 @@ An interruption is anything after which the joints may not be where the planner 
 them: a pause (a motor-manager fault), the driver enabling the motors again, or the planner's
 own ticks stopping for longer than `FREEZE_GAP` (a starved or stopped process). A walk freezes
 where it is (or at the slot boundary a pause held it at); a stand / sit move and a held pose
-are remembered. Once nothing pauses the planner and a measurement taken after the interruption
+are remembered; a pose move ends where it was (STANDING at that pose: it does not go on by
+itself). Once nothing pauses the planner and a measurement taken after the interruption
 is there (publishing nothing until then), a rest-sextic
 joint move (as ``stand``) brings the joints from the measured pose back to the held pose; the
 walk then continues where it stopped, a move starts again from there.
@@ -51,16 +52,15 @@ class Resumer:
 
     def admit(self, kind: str, driver: DriverView, now: float) -> None:
         """Refuse (`CommandError`) a ``kind`` command the driver's state or a resume in
-        progress does not allow; a stand / sit replaces a due resume."""
+        progress does not allow (a stand / sit once started replaces a due resume: the caller
+        then calls `clear`)."""
         journal = self.ctx.journal
-        if kind in ("stand", "sit", "walk") and driver.ending:
+        if kind in ("stand", "sit", "walk", "pose") and driver.ending:
             journal.refuse(f"{kind} refused: {driver.why()}; run crawler-motion console "
                            f"recover first", now)
-        if kind == "walk" and self.active and not self.ctx.paused:
-            journal.refuse("walk refused: resuming from the measured pose; retry when it is "
-                           "done", now)
-        if kind in ("stand", "sit"):
-            self.clear()
+        if kind in ("walk", "pose") and self.active and not self.ctx.paused:
+            journal.refuse(f"{kind} refused: resuming from the measured pose; retry when it "
+                           f"is done", now)
 
     def set_paused(self, paused: bool, now: float, reason: str) -> None:
         """Pause or resume at ``now`` [s]; a pause of a move or a held pose interrupts it
@@ -111,10 +111,9 @@ class Resumer:
             self._move = None
             self.walk.freeze(at)
         elif ctx.state == MOVING and self.moves.move is not None:
-            self._interrupted = self.moves.move
-            self.moves.clear()
             if ctx.last_target is not None:
                 ctx.hold = ctx.hold_pose(ctx.last_target.positions)
+            self._interrupted = self.moves.interrupt(at)  # None: a pose move, now STANDING
         if not self.pending:
             ctx.journal.event("warn", f"interrupted ({why}): holding; resuming from the "
                                       f"measured pose when it clears")

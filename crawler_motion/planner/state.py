@@ -12,12 +12,13 @@ class PlannerState(str, Enum):
 
         IDLE --stand--> MOVING --> STANDING --walk / cmd_vel--> WALKING --stop--> STOPPING
             --> STANDING
+        STANDING --pose--> MOVING --> STANDING (posed; stand: back to neutral)
         IDLE / STANDING --sit--> MOVING --> SITTING --stand--> MOVING --> STANDING
         any --estop--> ESTOP (latched) --reset--> IDLE (publish nothing until a new stand)
         WALKING / STOPPING --a slot that cannot even stop--> HOLDING (holds the pose; stand
             or sit)
 
-    ``MOVING`` is the joint-space move of ``stand`` / ``sit``.
+    ``MOVING`` is the joint-space move of ``stand`` / ``sit`` or the body move of ``pose``.
     """
 
     IDLE = "IDLE"

@@ -12,8 +12,9 @@ if TYPE_CHECKING:
 
 def planner_status(core: PlannerCore, late_ticks: int, stand_height: float) -> dict[str, Any]:
     """State, gait, profile, step k of N (k full gait cycles done), pause, resume in progress,
-    the driver's last reported state, last refusal, ``late_ticks`` and the ``stand_height``
-    [m] of the core."""
+    the driver's last reported state, last refusal, ``late_ticks``, the ``stand_height`` [m]
+    and the body pose (x, y, z [m], roll, pitch, yaw [rad]) of the core, and the foot
+    ``contacts`` (`contacts.ContactMonitor.report`)."""
     ctx, walk, journal = core.ctx, core.walk, core.ctx.journal
     params = walk.params if walk.params is not None else core.defaults
     return {
@@ -28,12 +29,14 @@ def planner_status(core: PlannerCore, late_ticks: int, stand_height: float) -> d
         "paused": ctx.paused,
         "pause_reason": ctx.pause_reason or None,
         "body_height": stand_height,
+        "body_pose": ctx.body_pose.as_dict(),
         "last_refusal": journal.last_refusal,
         "refusals": journal.refusals,
         "last_event": journal.last_event,
         "late_ticks": late_ticks,
         "resuming": core.resumer.active,
         "driver": core.driver.report.state if core.driver.report else None,
+        "contacts": core.contacts.report(),
         "revision": journal.revision,
         "stamp": journal.stamp,
     }

@@ -6,6 +6,7 @@ from __future__ import annotations
 #: names resolve in the recorder's namespace). Topics other issues add are found on the graph.
 STACK_TOPICS: dict[str, str] = {
     "planner_status": "std_msgs/msg/String",
+    "foot_contacts": "std_msgs/msg/String",
     "driver_status": "std_msgs/msg/String",
     "gait_command": "std_msgs/msg/String",
     "cmd_vel": "geometry_msgs/msg/Twist",

@@ -5,7 +5,8 @@ decodes like a ``ros2 bag``): odometry, joint states and commands, terrain map, 
 planner / navigation status and ``/diagnostics``. Without tf2, the frame tree is computed here:
 ``/tf`` carries ``odom`` -> ``base_link`` from ``odom`` and every URDF joint's transform at the
 measured ``joint_states`` (`crawler_motion.recording.frames`); ``/robot_description`` carries the
-URDF generated from the robot configuration. Load ``docs/foxglove_layout.json`` in Foxglove and
+URDF generated from the robot configuration (``--config``, ``--calibration``: give the planner's
+leg calibration when it is not robot.yaml's). Load ``docs/foxglove_layout.json`` in Foxglove and
 connect to ``ws://127.0.0.1:8765``.
 """
 
@@ -29,6 +30,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
+from crawler_motion.errors import CrawlerMotionError
+from crawler_motion.model.calibration_file import with_calibration
 from crawler_motion.model.config import load_config
 from crawler_motion.model.urdf import generate_urdf
 from crawler_motion.recording.frames import Transform, joint_transforms, urdf_joints
@@ -70,9 +73,9 @@ def frame_transforms(transforms: list[Transform], sec: int, nanosec: int) -> Fra
 class LiveView(Node):
     """Relays the stack's topics to Foxglove channels and publishes the computed frames."""
 
-    def __init__(self) -> None:
+    def __init__(self, urdf: str | None = None) -> None:
         super().__init__("foxglove_view")
-        urdf = generate_urdf(load_config().robot)
+        urdf = urdf if urdf is not None else generate_urdf(load_config().robot)
         self.joints = urdf_joints(urdf)
         self.channels = {absolute(t): ros2_channel(absolute(t), STACK_TOPICS[t])
                          for t in RELAYED}
@@ -112,15 +115,29 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to serve on (default 127.0.0.1: this machine only)")
     parser.add_argument("--port", type=int, default=8765, help="WebSocket port (default 8765)")
+    parser.add_argument("--config", default=None, help="robot YAML (default: the shipped one)")
+    parser.add_argument("--calibration", default=None,
+                        help="leg calibration YAML (default: robot.yaml's, else nominal)")
     args, _ros = parser.parse_known_args(argv)
     if not 0 <= args.port <= 65535:
         parser.error(f"--port must be in [0, 65535], got {args.port}")
     return args
 
 
+def robot_description(args: argparse.Namespace) -> str:
+    """The URDF of ``--config`` with the legs of ``--calibration`` (`CrawlerMotionError` for a
+    bad file)."""
+    return generate_urdf(with_calibration(load_config(args.config).robot, args.calibration))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Serve until Ctrl-C; returns the exit status."""
     args = parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        urdf = robot_description(args)
+    except CrawlerMotionError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 1
     try:
         server = foxglove.start_server(name="crawler_motion", host=args.host, port=args.port)
     except RuntimeError as exc:
@@ -131,7 +148,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rclpy.init(args=None)
     node = None
     try:
-        node = LiveView()
+        node = LiveView(urdf)
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -1,4 +1,5 @@
-"""The console-script `main` of every node: spin until Ctrl-C or shutdown (demo_nodes_py)."""
+"""The console-script `main` of every node: spin until Ctrl-C or shutdown (demo_nodes_py);
+several nodes in one process (`run_nodes`) for the composed controller."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from collections.abc import Callable, Sequence
 
 import rclpy
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from crawler_motion.errors import CrawlerMotionError
@@ -24,14 +25,27 @@ def run_node(make_node: Callable[[], Node], prefix: str, args: Sequence[str] | N
     exits with status 1 after the node is destroyed. ``switch_interval`` [s]: the GIL switch
     interval for nodes whose real-time thread must not wait 5 ms for the executor.
     """
+    run_nodes(lambda nodes: nodes.append(make_node()), prefix, args,
+              switch_interval=switch_interval)
+
+
+def run_nodes(make_nodes: Callable[[list[Node]], None], prefix: str,
+              args: Sequence[str] | None = None, *,
+              switch_interval: float | None = None) -> None:
+    """`run_node` for several nodes in one process and one executor (ROS 2 composition):
+    ``make_nodes(nodes)`` appends each node to ``nodes`` as soon as it is built, so those built
+    before a start-up error are destroyed too (in reverse order, as at the end)."""
     if switch_interval is not None:
         sys.setswitchinterval(switch_interval)
     rclpy.init(args=None if args is None else list(args))
-    node = None
+    nodes: list[Node] = []
     failed = ""
     try:
-        node = make_node()
-        rclpy.spin(node)
+        make_nodes(nodes)
+        executor = SingleThreadedExecutor()
+        for node in nodes:
+            executor.add_node(node)
+        executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except RuntimeError:
@@ -43,7 +57,7 @@ def run_node(make_node: Callable[[], Node], prefix: str, args: Sequence[str] | N
     except STARTUP_ERRORS as exc:
         failed = f"{prefix}: {exc}"
     finally:
-        if node is not None:
+        for node in reversed(nodes):
             node.destroy_node()
         rclpy.try_shutdown()
     if failed:

@@ -1,4 +1,8 @@
-"""The ``motor_manager_sim`` console script: runs `MotorManagerSim` on a CAN bus until a signal."""
+"""The ``motor_manager_sim`` console script: runs `MotorManagerSim` on a CAN bus until a signal.
+
+It takes its options, or ``--ros-args`` like the nodes (``-p can_port:=43113``,
+``--params-file config/params.yaml``: `manager_parameters`); both may be mixed, options win.
+"""
 
 from __future__ import annotations
 
@@ -19,8 +23,10 @@ from crawler_motion.canbus.bus import (
     open_bus,
 )
 from crawler_motion.canbus.protocol import MotorProtocol
-from crawler_motion.errors import CrawlerMotionError
-from crawler_motion.runtime.cli_args import OneLineParser
+from crawler_motion.errors import ConfigError, CrawlerMotionError
+from crawler_motion.runtime.cli_args import OneLineParser, split_ros_args
+from crawler_motion.runtime.ros_args import parse_ros_args
+from crawler_motion.sim.manager_parameters import NODE_NAME, manager_flags
 from crawler_motion.sim.motor_manager import (
     DEFAULT_COMMAND_TIMEOUT,
     DEFAULT_SPEED_LIMIT,
@@ -59,6 +65,8 @@ def _parser() -> OneLineParser:
     parser.add_argument("--initial-pose", choices=("mid", "zero"), default="mid",
                         help="joint angles at power-up: 'mid' = the middle of every joint's "
                              "limits (default), 'zero' = all zero (outside the knee limit)")
+    parser.add_argument("--no-effort", action="store_true",
+                        help="send no effort frames (a manager without them)")
     parser.add_argument("--dbc", default=None, help="DBC file (default: the shipped one)")
     parser.add_argument("--axes", default=None, help="axis map YAML (default: the shipped one)")
     parser.add_argument("--config", default=None,
@@ -71,7 +79,9 @@ def _open(interface: str, channel: str | None, port: int) -> tuple[can.BusABC, s
     channel = channel or default_channel(interface)
     if channel is None:
         raise ValueError(f"--channel is required for interface {interface!r}")
-    return open_bus(interface, channel, port), describe_bus(interface, channel, port)
+    # as a real manager on SocketCAN, it does not receive the frames it sends
+    bus = open_bus(interface, channel, port, own_frames=False)
+    return bus, describe_bus(interface, channel, port)
 
 
 def _run(sim: MotorManagerSim, stop: threading.Event, where: str) -> int:
@@ -92,7 +102,13 @@ def _run(sim: MotorManagerSim, stop: threading.Event, where: str) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the simulated manager until SIGINT/SIGTERM; returns the exit code."""
     parser = _parser()
-    args = parser.parse_args(argv)
+    own, ros = split_ros_args(sys.argv[1:] if argv is None else argv)
+    if ros:
+        try:
+            own = [*manager_flags(parse_ros_args(ros, NODE_NAME)), *own]
+        except ConfigError as exc:
+            parser.error(f"--ros-args: {exc}")
+    args = parser.parse_args(own)
     for name in POSITIVE_OPTIONS:
         value = getattr(args, name)
         if value is not None and not (math.isfinite(value) and value > 0):
@@ -122,7 +138,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         sim = MotorManagerSim(bus, protocol, speed_limit=args.speed_limit, rate=args.rate,
                               initial_positions=initial,
                               heartbeat_period=args.heartbeat_period,
-                              command_timeout=args.command_timeout)
+                              command_timeout=args.command_timeout,
+                              effort=not args.no_effort)
         return _run(sim, stop, where)
     except (CrawlerMotionError, ValueError, RuntimeError) as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)

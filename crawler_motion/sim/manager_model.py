@@ -26,6 +26,10 @@ class Plant(Protocol):
         measured axis positions [rad]."""
         ...
 
+    def take_efforts(self) -> np.ndarray:
+        """The axes' efforts (axis order [N m]) averaged since the last call."""
+        ...
+
 
 class ManagerModel:
     """Axis positions and targets in axis order [rad] under a `ManagerStateMachine`.
@@ -36,7 +40,8 @@ class ManagerModel:
     With a ``plant`` the axes' motion comes from it instead: its servos always track
     ``target`` (a manager that holds, is disabled or stopped keeps them holding where it held
     them) and ``pos`` is what the plant measures; stalls do not apply. When the plant fails, an
-    enabled manager holds.
+    enabled manager holds. `efforts` are the plant's mean drive torques since the last report;
+    without a plant the axes carry no load and report 0 N m.
     """
 
     def __init__(self, positions: np.ndarray, speed: np.ndarray,
@@ -103,6 +108,13 @@ class ManagerModel:
         if self.plant.failure is not None and self.machine.state == ManagerState.ENABLED:
             self.command(ManagerState.HOLD.value)
             log.error("plant failed at t=%.3f s: holding (%s)", self.time, self.plant.failure)
+
+    def efforts(self) -> np.ndarray:
+        """The efforts to report, axis order [N m]: the plant's mean since the last report,
+        else zero (massless axes moved at a speed limit)."""
+        if self.plant is None:
+            return np.zeros(self.pos.size)
+        return np.array(self.plant.take_efforts(), dtype=float)
 
     def flags(self) -> list[AxisFlags]:
         """The status bits of every axis, in axis order."""

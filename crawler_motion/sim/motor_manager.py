@@ -1,8 +1,10 @@
 """A simulated multi-axis motor manager speaking `crawler_motion.canbus.protocol` on any CAN bus.
 
 Pure Python (no ROS). Every axis tracks its target at a speed limit [rad/s]; the manager sends
-measured positions and status bits at ``rate`` [Hz] and a heartbeat every ``heartbeat_period``
-[s], and obeys the MM_Control commands (see `crawler_motion.sim.manager_state`):
+measured efforts (a plant's mean drive torques, else 0 N m; none with ``effort=False``, like a
+manager without effort frames), positions and status bits at ``rate`` [Hz] and a heartbeat
+every ``heartbeat_period`` [s], and obeys the MM_Control commands (see
+`crawler_motion.sim.manager_state`):
 
 - ``disable``: axes unpowered, targets ignored (the start state);
 - ``enable``: axes powered, follow the targets (starting from where they are);
@@ -101,20 +103,29 @@ def _schedules(protocol: MotorProtocol, rate: float | None,
     return PeriodicSchedule(feedback), PeriodicSchedule(heartbeat)
 
 
+def feedback_frames(protocol: MotorProtocol, model: ManagerModel, counter: int,
+                    effort: bool) -> list[can.Message]:
+    """One feedback cycle: the efforts (with ``effort``; before the positions, as their lower
+    ids would win arbitration), the positions, the status bits."""
+    frames = protocol.encode_efforts(model.efforts(), counter) if effort else []
+    frames += protocol.encode_feedback(model.pos, counter)
+    return frames + protocol.encode_status(model.flags(), counter)
+
+
 class MotorManagerSim:
     """The simulated manager on ``bus``; positions are axis positions in axis order [rad].
 
     ``initial_positions`` are joint angles in joint order [rad] (default: all zero, which is not
     the standing pose); ``speed_limit`` is one value or one per axis [rad/s] (a `Plant` moves
-    the axes instead, when given); ``rate`` [Hz], ``heartbeat_period`` [s]: the DBC's default.
-    """
+    the axes instead, when given); ``rate`` [Hz], ``heartbeat_period`` [s]: the DBC's default;
+    ``effort``: send effort frames (`feedback_frames`)."""
 
     def __init__(self, bus: can.BusABC, protocol: MotorProtocol, *,
                  speed_limit: float | Sequence[float] = DEFAULT_SPEED_LIMIT,
                  rate: float | None = None, heartbeat_period: float | None = None,
                  command_timeout: float = DEFAULT_COMMAND_TIMEOUT,
                  initial_positions: Sequence[float] | None = None, plant: Plant | None = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, effort: bool = True) -> None:
         missing = [s.value for s in ManagerState if s.value not in protocol.states]
         if missing:
             raise ProtocolError(f"the DBC's MM_Heartbeat.State lacks the states {missing}")
@@ -128,6 +139,7 @@ class MotorManagerSim:
         protocol.encode_feedback(pos, 0)  # refuses an initial pose it could not report
         self._model = ManagerModel(pos, speed, timeout, plant)
         self._silent = False
+        self._effort = bool(effort)
         self._last_counter: dict[int, int] = {}
         self._feedback_counter = 0
         self._heartbeat_counter = 0
@@ -315,8 +327,7 @@ class MotorManagerSim:
     def _send_feedback(self) -> None:
         counter = self._feedback_counter
         try:
-            frames = self._protocol.encode_feedback(self._model.pos, counter)
-            frames += self._protocol.encode_status(self._model.flags(), counter)
+            frames = feedback_frames(self._protocol, self._model, counter, self._effort)
         except ProtocolError as exc:  # cannot happen with a validated initial pose; never crash
             self._count(send_errors=1)
             self.last_error = str(exc)

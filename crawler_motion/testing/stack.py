@@ -18,10 +18,11 @@ from crawler_motion.testing.bus import BusSpec
 EXECUTABLES = {"motor_manager_sim": "crawler_motion.sim.manager_cli",
                "driver_node": "crawler_motion.driver.node",
                "planner_node": "crawler_motion.planner.node",
+               "controller_node": "crawler_motion.controller.node",
                "seabed_sim": "crawler_motion.sim.seabed.node"}
 #: Short process names (log files ``<name>.log``) of the benches and tests.
 SHORT_NAMES = {"motor_manager_sim": "sim", "driver_node": "driver", "planner_node": "planner",
-               "seabed_sim": "seabed"}
+               "seabed_sim": "seabed", "controller_node": "controller"}
 #: Driver watchdog of the demo and benches [s]. The driver's default (0.2 s) is meant for a
 #: dedicated controller; on a shared laptop or CI machine a starved planner process can miss it,
 #: and a tripped watchdog (correctly) needs an explicit re-enable, which would end the run.
@@ -71,7 +72,9 @@ class StackSpec:
     (activated, watchdog ``command_timeout`` [s]) and the planner (``rate`` [Hz]; none when
     ``planner`` is None) on ``bus``; ``driver`` / ``planner`` hold extra parameters, ``remaps``
     ROS remappings of both nodes, ``names`` the process names by executable. With ``seabed``
-    (its parameters) the manager is ``seabed_sim``, the physical one, instead."""
+    (its parameters) the manager is ``seabed_sim``, the physical one, instead. With
+    ``controller`` the planner and the driver run composed in one ``controller_node``
+    process, which takes both parameter sets."""
 
     bus: BusSpec
     rate: float = 100.0
@@ -83,6 +86,7 @@ class StackSpec:
     remaps: tuple[str, ...] = ()
     names: Mapping[str, str] = field(default_factory=lambda: dict(SHORT_NAMES))
     seabed: dict[str, Any] | None = None
+    controller: bool = False
 
     def commands(self) -> dict[str, list[str]]:
         """Process name -> command line, in start order."""
@@ -90,16 +94,19 @@ class StackSpec:
         if self.sim and self.seabed is not None:
             out[self.names["seabed_sim"]] = [*node_command("seabed_sim"), *ros_args(
                 {**self.bus.ros_params(), **self.seabed}, self.remaps)]
-        elif self.sim:
-            out[self.names["motor_manager_sim"]] = [
-                *node_command("motor_manager_sim"), *self.bus.cli_args(),
-                "--speed-limit", str(float(self.speed_limit))]
+        elif self.sim:  # its --ros-args (its options would do as well: `BusSpec.cli_args`)
+            out[self.names["motor_manager_sim"]] = [*node_command("motor_manager_sim"), *ros_args(
+                {**self.bus.ros_params(), "speed_limit": float(self.speed_limit)}, self.remaps)]
         driver = {"autostart": True, "command_timeout": float(self.command_timeout),
                   **self.bus.ros_params(), **self.driver}
+        planner = None if self.planner is None else {"rate": float(self.rate), **self.planner}
+        if self.controller:  # the planner composed with the driver: both parameter sets
+            out[self.names["controller_node"]] = [*node_command("controller_node"), *ros_args(
+                {**driver, **(planner or {})}, self.remaps)]
+            return out
         out[self.names["driver_node"]] = [*node_command("driver_node"),
                                           *ros_args(driver, self.remaps)]
-        if self.planner is not None:
-            planner = {"rate": float(self.rate), **self.planner}
+        if planner is not None:
             out[self.names["planner_node"]] = [*node_command("planner_node"),
                                                *ros_args(planner, self.remaps)]
         return out

@@ -65,6 +65,16 @@ class FrameRecorder(TapListener):
         self.frames.append((self.clock(msg.timestamp), msg))
 
 
+def end_child(proc: Any, stop: Any, grace: float = 2.0) -> None:
+    """Ask a listener child process to stop (``stop``: its multiprocessing Event), wait
+    ``grace`` [s], then kill it if it still runs."""
+    stop.set()
+    proc.join(grace)
+    if proc.is_alive():
+        proc.kill()
+        proc.join(grace)
+
+
 def wall_to_monotonic(wall: float) -> float:
     """A system-clock time [s] (kernel receive stamps, ROS header stamps) on the monotonic
     clock, so scheduling delays of a busy observer do not enter measured times."""

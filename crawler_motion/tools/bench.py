@@ -20,10 +20,10 @@ Rows:
 - `PlannerCore.tick` while walking at 100 Hz as the node runs it (the next slot planned by
   `PlannerCore.plan_ahead` between ticks), the same without planning ahead (its p99 is the
   slot boundaries, where the tick plans and checks the next slot), and `plan_ahead` itself;
-  the same tick with every leg calibrated (synthetic assembly errors: the IK refines the
-  closed form with Newton steps, `motion.fastchain`);
+  the same tick with every leg calibrated (synthetic assembly errors: the IK refines each
+  leg's last solution with Newton steps, `motion.fastchain`);
 - CAN bus load at 1 Mbit/s: command (target frames) at 100, 200 and 500 Hz and feedback
-  (positions, status, heartbeat) at the simulated manager's default rates, with worst-case
+  (positions, efforts, status, heartbeat) at the simulated manager's default rates, with worst-case
   bit stuffing (`canbus.busload.frame_bits_worst_case`).
 
 Run: crawler-motion bench [--quick] [--config PATH]; crawler-motion bench --e2e [--quick] [the
@@ -302,11 +302,13 @@ def bus_rows(cfg: Config) -> list[tuple[str, float, float, int, float]]:
     feedback_rate = 1.0 / proto.cycle_period("position")
     heartbeat_rate = 1.0 / proto.cycle_period("heartbeat")
     n_pos, pos_bits = family("position")
+    n_eff, eff_bits = family("effort")
     n_stat, stat_bits = family("status")
     n_hb, hb_bits = family("heartbeat")
-    rows.append((f"feedback: {n_pos} position + {n_stat} status frames", feedback_rate,
-                 (n_pos + n_stat) * feedback_rate, pos_bits + stat_bits,
-                 100.0 * (pos_bits + stat_bits) * feedback_rate / BITRATE))
+    bits = pos_bits + eff_bits + stat_bits
+    rows.append((f"feedback: {n_pos} position + {n_eff} effort + {n_stat} status frames",
+                 feedback_rate, (n_pos + n_eff + n_stat) * feedback_rate, bits,
+                 100.0 * bits * feedback_rate / BITRATE))
     rows.append((f"feedback: {n_hb} heartbeat frame", heartbeat_rate, n_hb * heartbeat_rate,
                  hb_bits, 100.0 * hb_bits * heartbeat_rate / BITRATE))
     return rows
@@ -352,8 +354,9 @@ def print_targets(rows: list[Row]) -> None:
 
 
 def bench_e2e(quick: bool, options: list[str]) -> int:
-    """End-to-end bench over the cross-process bus (`bench_e2e`): planner -> driver -> CAN at
-    100, 200 and 500 Hz, 15 s of walking per rate (5 s with ``--quick``); ``options`` go to
+    """End-to-end bench over the cross-process bus (`bench_e2e`): planner -> driver -> CAN,
+    the two-node pipeline and the composed ``controller_node`` side by side at 100, 200, 500
+    and 1000 Hz, 15 s of walking per rate (5 s with ``--quick``); ``options`` go to
     `bench_e2e.main` (``--seconds`` there overrides the default)."""
     from crawler_motion.tools import bench_e2e as e2e
 

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from crawler_motion.calibration import csvio, report, study, synthetic
-from crawler_motion.calibration.identify import Method
+from crawler_motion.calibration.identify import RLS_MAX_PASSES, Method
 from crawler_motion.calibration.jacobian import leg_feet
 from crawler_motion.errors import CrawlerMotionError
 from crawler_motion.model.calibration_file import (
@@ -65,6 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--noise", type=finite_number("--noise", nonneg=True), action="append",
                      help="tracker noise per axis [m]; repeat (default: 0 and 2e-5)")
     rep.add_argument("--seed", type=int, default=0)
+    rep.add_argument("--rls-passes", type=positive_int, default=RLS_MAX_PASSES,
+                     help=f"most RLS re-linearisations (default {RLS_MAX_PASSES}; 1: one pass "
+                          f"over the poses, as the study's RLS)")
     return parser
 
 
@@ -136,7 +139,8 @@ def cmd_report(args: argparse.Namespace, robot: RobotConfig) -> int:
     for leg in range(robot.n_legs):
         sel = None
         for noise in args.noise or (0.0, 2e-5):
-            rep = report.leg_report(robot, leg, true.geometry.params[leg], noise, args.seed, sel)
+            rep = report.leg_report(robot, leg, true.geometry.params[leg], noise, args.seed, sel,
+                                    args.rls_passes)
             sel = rep.selection
             print(report.format_report(rep) + "\n")
     return 0

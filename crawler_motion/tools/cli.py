@@ -100,10 +100,11 @@ def cmd_walk(args: argparse.Namespace, cfg: Config) -> int:
 
 
 def cmd_urdf(args: argparse.Namespace, cfg: Config) -> int:
-    """Write the URDF generated from the config."""
+    """Write the URDF generated from the config (and the leg calibration, if given)."""
+    from crawler_motion.model.calibration_file import with_calibration
     from crawler_motion.model.urdf import generate_urdf
 
-    text = generate_urdf(cfg.robot)
+    text = generate_urdf(with_calibration(cfg.robot, args.calibration))
     if args.output:
         Path(args.output).write_text(text, encoding="utf-8")
     else:
@@ -155,6 +156,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=lambda args, cfg: cmd_evaluate(args, cfg, walk_params(args, cfg)))
     p = sub.add_parser("urdf", help="the URDF generated from the robot config")
     p.add_argument("--output", "-o", default=None, help="file to write (default: stdout)")
+    p.add_argument("--calibration", default=None, help="leg calibration YAML: per-leg joint "
+                   "origins (default: robot.yaml's calibration_file, else nominal)")
     p.add_argument("--config", default=None, help="robot YAML (default: the shipped one)")
     p.set_defaults(func=cmd_urdf)
     p = sub.add_parser("plot", help="PNG plots: rest vs smooth vs quartic, joints over a walk")
@@ -182,6 +185,8 @@ _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("calibrate", "crawler_motion.tools.calibrate",
      "leg calibration: excitation poses, identification, simulated tracker"),
     ("fk", "crawler_motion.tools.fk", "forward kinematics of one leg: CSV joints in, feet out"),
+    ("pose", "crawler_motion.tools.pose",
+     "a standing body-pose move (shift and tilt, feet fixed) as CSV"),
     ("map-plot", "crawler_motion.tools.map_plot",
      "walk around obstacles in the simulator: elevation map, path and heading plots"),
     ("path", "crawler_motion.tools.apf_path",

@@ -6,6 +6,7 @@ state it asked for and prints each status change (state, step k of N) on the way
 
     crawler-motion console stand
     crawler-motion console walk --steps 4 --gait wave
+    crawler-motion console pose --x 0.01 --roll 0.05
     crawler-motion console twist --vx 0.03 --duration 4
     crawler-motion console estop
 """
@@ -19,8 +20,9 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from crawler_motion.motion.walk_options import OPTIONS
 from crawler_motion.planner.commands import COMMAND_KEYS
-from crawler_motion.runtime.cli_args import OneLineParser, finite_number
+from crawler_motion.runtime.cli_args import OneLineParser, finite_number, split_ros_args
 from crawler_motion.tools.args import add_walk_options
 
 PROG = "crawler-motion console"
@@ -28,12 +30,13 @@ PROG = "crawler-motion console"
 #: State reached when a command is done (None: return once the planner accepted it).
 DONE_STATES: dict[str, tuple[str, ...]] = {
     "stand": ("STANDING",), "sit": ("SITTING",), "stop": ("STANDING",), "estop": ("ESTOP",),
-    "reset": ("IDLE",),
+    "reset": ("IDLE",), "pose": ("STANDING",),
 }
 #: Help of the actions that are more than one gait command sent as it is.
 ACTION_HELP: dict[str, str] = {
     "stand": "stand up from the measured pose",
     "walk": "walk N steps (absent: until stopped) and wait for it",
+    "pose": "shift and tilt the standing body, every foot fixed (options left out: 0)",
 }
 
 
@@ -80,13 +83,19 @@ def command_from_args(args: argparse.Namespace) -> dict[str, Any] | None:
 
 
 def describe(status: dict[str, Any]) -> str:
-    """One line for a status: state, step k of N, phase, pause."""
+    """One line for a status: state, step k of N, phase, body pose, pause."""
     text = str(status.get("state"))
     if status.get("state") in ("WALKING", "STOPPING"):
         steps = status.get("steps")
         text += f" step {status.get('step')} of {steps if steps is not None else '∞'}"
         if status.get("phase"):
             text += f" ({status['phase']})"
+    pose = status.get("body_pose")
+    if isinstance(pose, dict) and status.get("state") in ("STANDING", "MOVING"):
+        shown = [f"{k} {v:g} {OPTIONS[k].unit}" for k, v in pose.items()
+                 if k in OPTIONS and isinstance(v, (int, float)) and v]
+        if shown:
+            text += f" (pose {', '.join(shown)})"
     if status.get("paused"):
         text += f" PAUSED: {status.get('pause_reason')}"
     return text
@@ -107,7 +116,7 @@ class Console:
     Call ``rclpy.init`` first; `close` destroys the node.
     """
 
-    def __init__(self, node_name: str = "crawler_console") -> None:
+    def __init__(self, node_name: str = "crawler_console", namespace: str | None = None) -> None:
         import rclpy
         from geometry_msgs.msg import Twist
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -115,7 +124,7 @@ class Console:
 
         self._rclpy = rclpy
         self._string, self._twist = String, Twist
-        self.node = rclpy.create_node(node_name)
+        self.node = rclpy.create_node(node_name, namespace=namespace)  # None: the ROS args'
         self.pub_cmd = self.node.create_publisher(String, "gait_command", 10)
         self.pub_twist = self.node.create_publisher(Twist, "cmd_vel", 10)
         qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -184,6 +193,8 @@ class Console:
                 seen.append(str(st.get("state")))
             if refused():
                 return True
+            if name == "pose":  # from STANDING through MOVING back to STANDING
+                return "MOVING" in seen and st.get("state") == "STANDING"
             if name == "walk":
                 if command.get("steps") is None:
                     return "WALKING" in seen
@@ -227,12 +238,14 @@ def outcome(ok: bool, message: str, prog: str = PROG) -> int:
     return 0 if ok else 1
 
 
-def run_session(make: Callable[[], Any], body: Callable[[Any], int], quiet: bool) -> int:
-    """``rclpy`` up, ``make()`` a console object (with ``printer`` and ``close``), run
-    ``body(console)`` and return its exit status; 130 on Ctrl-C; everything shut down after."""
+def run_session(make: Callable[[], Any], body: Callable[[Any], int], quiet: bool,
+                ros_args: Sequence[str] = ()) -> int:
+    """``rclpy`` up (with ``ros_args``: ``--ros-args ...``, e.g. a namespace remap), ``make()``
+    a console object (with ``printer`` and ``close``), run ``body(console)`` and return its
+    exit status; 130 on Ctrl-C; everything shut down after."""
     import rclpy
 
-    rclpy.init()
+    rclpy.init(args=[PROG, *ros_args])
     console = None
     try:
         console = make()
@@ -248,8 +261,11 @@ def run_session(make: Callable[[], Any], body: Callable[[Any], int], quiet: bool
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``crawler-motion console``; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    """Entry point of ``crawler-motion console``; returns the exit status. ROS arguments after
+    ``--ros-args`` go to rclpy (``--ros-args -r __ns:=/crawler1``: the robot in that
+    namespace)."""
+    own, ros = split_ros_args(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(own)
     command: dict[str, Any] | None
     if args.action == "send":
         try:
@@ -266,8 +282,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         from crawler_motion.tools.goto import run
 
         return run(args.action, getattr(args, "x", 0.0), getattr(args, "y", 0.0),
-                   getattr(args, "frame", "odom"), args.timeout, args.quiet)
-    return run_session(Console, lambda console: _act(console, args, command), args.quiet)
+                   getattr(args, "frame", "odom"), args.timeout, args.quiet, ros)
+    return run_session(Console, lambda console: _act(console, args, command), args.quiet, ros)
 
 
 def _act(console: Console, args: argparse.Namespace, command: dict[str, Any] | None) -> int:

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from crawler_motion.testing.tap import FAMILIES, FamilyCounter
+from crawler_motion.testing.tap import FAMILIES, FamilyCounter, end_child
 
 #: Columns of a target frame group (see `GroupRecorder`): kernel time, user time, counter,
 #: frames, then the joint positions.
@@ -175,9 +175,5 @@ class TapProcess:
 
     def kill(self) -> None:
         """End the listener if it is still running."""
-        self._stop.set()
-        self._proc.join(2.0)
-        if self._proc.is_alive():
-            self._proc.kill()
-            self._proc.join(2.0)
+        end_child(self._proc, self._stop)
 

@@ -30,8 +30,10 @@ from crawler_motion.tools.e2e_records import (
 )
 from crawler_motion.tools.procstat import cpu_seconds, rss_mb
 
-#: Process names of the stack (log files ``<name>.log``).
+#: Process names of the stack (log files ``<name>.log``); the composed controller replaces
+#: the planner and the driver by one process.
 PROCESSES = ("planner", "driver", "sim")
+CONTROLLER_PROCESSES = ("controller", "sim")
 #: Period of the driver's /diagnostics in these runs [s] (the driver's default is 1 s): the
 #: final counters are read from a report that arrives after the planner stopped and before
 #: the driver's command watchdog (`STACK_COMMAND_TIMEOUT`) trips because of it.
@@ -165,14 +167,16 @@ class Observer:
 
 class Stack:
     """Simulated manager + driver (autostart) + planner on a fresh udp_multicast port and a ROS
-    domain of their own, observed by an `Observer` and a `TapProcess` listening on the bus."""
+    domain of their own, observed by an `Observer` and a `TapProcess` listening on the bus.
+    With ``controller`` the planner and the driver run composed (``controller_node``)."""
 
     def __init__(self, rate: float, *, gait: str = "diagonal",
                  command_timeout: float = STACK_COMMAND_TIMEOUT, logs: Path | None = None,
-                 tick_priority: int = 0) -> None:
+                 tick_priority: int = 0, controller: bool = False) -> None:
         from crawler_motion.model.config import load_config
 
         self.rate = float(rate)
+        self.controller = bool(controller)
         self.tick_priority = int(tick_priority)
         self.gait = gait
         self.command_timeout = float(command_timeout)
@@ -206,7 +210,13 @@ class Stack:
             speed_limit=float(self.cfg.robot.velocity.max()),
             driver={"diagnostics_period": DIAGNOSTICS_PERIOD,
                     "priority": max(0, self.tick_priority - 1)},
-            planner={"gait": self.gait, "tick_priority": self.tick_priority})
+            planner={"gait": self.gait, "tick_priority": self.tick_priority},
+            controller=self.controller)
+
+    @property
+    def processes(self) -> tuple[str, ...]:
+        """Names of the stack's processes."""
+        return CONTROLLER_PROCESSES if self.controller else PROCESSES
 
     def start(self, timeout: float = 30.0) -> None:
         """Start everything; returns once measured joint_states arrive and the planner is up."""
@@ -300,7 +310,7 @@ class Stack:
         driver and the manager (in that order: no target frame after the planner stops)."""
         before = self.diag
         t_cut = time.time()
-        self.procs.stop(["planner"], timeout=10.0)
+        self._stop_commands()
         t_exit = time.time()
         self.console.wait_until(lambda: self.diag.t > t_exit + 0.3, 5.0)
         after = self.diag
@@ -309,6 +319,15 @@ class Stack:
         self.procs.stop(timeout=10.0)
         sim_log = self.procs.log_path("sim").read_text(errors="replace")
         return Finish(tap, before, after, parse_sim_counters(sim_log), t_cut)
+
+    def _stop_commands(self) -> None:
+        """End the joint commands: stop the planner process; in the composed controller, whose
+        driver must stay to report its final counters, latch an e-stop (no command after it)."""
+        if not self.controller:
+            self.procs.stop(["planner"], timeout=10.0)
+            return
+        self.console.send({"command": "estop"})
+        self.console.wait_until(lambda: self.status.get("state") == "ESTOP", 5.0)
 
     def close(self) -> None:
         """Tear everything down (idempotent; after `finish` or on an error)."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 #: States that end a goal.
@@ -110,12 +110,14 @@ class GoalConsole:
         self.node.destroy_node()
 
 
-def run(action: str, x: float, y: float, frame: str, timeout: float, quiet: bool) -> int:
-    """The ``goto`` / ``cancel`` action of the console; the exit status."""
+def run(action: str, x: float, y: float, frame: str, timeout: float, quiet: bool,
+        ros_args: Sequence[str] = ()) -> int:
+    """The ``goto`` / ``cancel`` action of the console (``ros_args``: ``--ros-args ...``);
+    the exit status."""
     from crawler_motion.tools.console import outcome, run_session
 
     def act(console: GoalConsole) -> int:
         return outcome(*(console.goto(x, y, frame, timeout) if action == "goto"
                          else console.cancel(min(timeout, 10.0))))
 
-    return run_session(GoalConsole, act, quiet)
+    return run_session(GoalConsole, act, quiet, ros_args)

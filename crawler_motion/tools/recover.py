@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from crawler_motion.runtime.diagnostic_names import same_robot
 from crawler_motion.tools.console import Console, json_object
 
 #: Driver diagnostics that reset / enable cannot cure, as (text in the message, what to do).
@@ -61,7 +62,8 @@ class DriverState:
 
     def _on_diag(self, msg: Any) -> None:
         for s in msg.status:
-            if s.name.endswith(": motor manager") and s.hardware_id == "motor_manager":
+            if (s.name.endswith(": motor manager") and s.hardware_id == "motor_manager"
+                    and same_robot(s.name, self.console.node.get_namespace())):
                 level = s.level[0] if isinstance(s.level, bytes) else int(s.level)
                 self.manager = (level, s.message, {kv.key: kv.value for kv in s.values})
 

@@ -239,8 +239,9 @@ def print_frames(run: SoakRun, fig: Figures) -> None:
           f"(all frames) | manager received {sim.get('received', '-')} (all frames, "
           f"incl. {sim.get('ignored', '-')} ignored: mostly its own, looped back), "
           f"{sim.get('commands', '-')} control |")
-    fb = sum(c.get(k, 0) for k in ("position", "status", "heartbeat"))
-    print(f"| position / status / heartbeat (manager -> driver) | {c.get('position', 0)} / "
+    fb = sum(c.get(k, 0) for k in ("effort", "position", "status", "heartbeat"))
+    print(f"| effort / position / status / heartbeat (manager -> driver) | "
+          f"{c.get('effort', 0)} / {c.get('position', 0)} / "
           f"{c.get('status', 0)} / {c.get('heartbeat', 0)} (sum {fb}, "
           f"{fb / span:.0f}/s over the walk) | manager sent {sim.get('sent', '-')} (all, "
           f"until its exit) | driver rx {after.n('rx')} (incl. {after.n('rx_ignored')} "

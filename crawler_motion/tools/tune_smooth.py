@@ -18,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from crawler_motion.model.config import ProfileConfig, load_config
+from crawler_motion.model.config import load_config
+from crawler_motion.model.gait_config import ProfileConfig
 from crawler_motion.motion.trajectory import Piecewise, SwingShape, swing_segments
 
 PROG = "crawler-motion tune-smooth"

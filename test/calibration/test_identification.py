@@ -1,5 +1,6 @@
 """Calibration: rank and identifiable set, identification recovering injected errors with and
-without tracker noise, the excitation's boundary conditions and limits, pose selection."""
+without tracker noise, RLS-DE no worse than RLS, the excitation's boundary conditions and
+limits, pose selection."""
 
 from __future__ import annotations
 
@@ -64,7 +65,7 @@ def test_noise_free_identification_recovers_the_leg(leg: int, seed: int) -> None
     first, hybrid = rls_de(prob, 10, 10, np.random.default_rng(seed))
     after = val.errors(hybrid.params).mean()
     assert after <= 0.02e-3 and after <= 0.05 * before
-    assert hybrid.mean <= first.mean
+    assert prob.rms(hybrid.params) <= prob.rms(first.params)
 
 
 @pytest.mark.parametrize("leg", [0, 3])
@@ -74,6 +75,33 @@ def test_noisy_identification_within_the_target(leg: int) -> None:
     assert val.errors(hybrid.params).mean() <= 0.05e-3
     alone = de(prob, 10, max(hybrid.evaluations // 10 - 1, 1), np.random.default_rng(0))
     assert hybrid.mean < alone.mean
+
+
+@pytest.mark.parametrize(("seed", "leg"), [(10, 0), (10, 1), (10, 2), (10, 3), (11, 2),
+                                         (12, 0)])
+def test_rls_de_is_no_worse_than_rls_on_validation_with_tracker_noise(seed: int,
+                                                                      leg: int) -> None:
+    """The report's DE settings (population 20, 50 generations). With DE minimising the mean
+    Euclidean error these cases came out worse than RLS on validation (by 14-32 %): DE fitted
+    the noise of the 50 poses. Now DE minimises the RMS error (least squares, as RLS) and its
+    result is kept only when it lowers that on the identification poses."""
+    prob, val = _problem(seed, leg, 0.02e-3)
+    first, hybrid = rls_de(prob, 20, 50, np.random.default_rng(0))
+    assert prob.rms(hybrid.params) <= prob.rms(first.params)
+    assert val.errors(hybrid.params).mean() <= val.errors(first.params).mean()
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.02e-3])
+def test_de_improves_an_unconverged_rls_estimate(noise: float) -> None:
+    """One RLS pass (as the study's RLS, not re-linearised to convergence) leaves the
+    linearisation error; the DE stage lowers the identification RMS and the validation error,
+    so its result replaces the RLS estimate."""
+    prob, val = _problem(1, 0, noise)
+    first, hybrid = rls_de(prob, 20, 50, np.random.default_rng(0), max_passes=1)
+    assert first.iterations == 1
+    assert prob.rms(hybrid.params) < 0.9 * prob.rms(first.params)
+    assert val.errors(hybrid.params).mean() < 0.9 * val.errors(first.params).mean()
+    assert hybrid.evaluations == first.evaluations + 20 * 51
 
 
 def test_rls_alone_moves_towards_the_truth() -> None:

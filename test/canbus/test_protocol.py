@@ -360,7 +360,7 @@ def test_frame_bits_worst_case():
 
 def test_cycle_bits(proto):
     assert proto.cycle_bits() == {"control": 75, "target": 540, "position": 540,
-                                  "status": 270, "heartbeat": 75}
+                                  "effort": 540, "status": 270, "heartbeat": 75}
 
 
 def test_crc8_check_value():

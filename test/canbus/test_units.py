@@ -62,11 +62,12 @@ def test_cycle_bits_sums_per_family():
 
 
 def test_frame_kinds_and_senders():
-    assert [k.value for k in FrameKind] == ["control", "target", "position", "status",
-                                            "heartbeat"]
+    assert [k.value for k in FrameKind] == ["control", "target", "position", "effort",
+                                            "status", "heartbeat"]
     assert f"{FrameKind.TARGET}" == "target" and FrameKind("status") is FrameKind.STATUS
     rows = {FrameKind.CONTROL: Side.CONTROLLER, FrameKind.TARGET: Side.CONTROLLER,
-            FrameKind.POSITION: Side.MANAGER, FrameKind.STATUS: Side.MANAGER,
+            FrameKind.POSITION: Side.MANAGER, FrameKind.EFFORT: Side.MANAGER,
+            FrameKind.STATUS: Side.MANAGER,
             FrameKind.HEARTBEAT: Side.MANAGER}
     for kind, side in rows.items():
         assert sender_of(kind) is side and (kind in CONTROLLER_KINDS) == (side == "controller")

@@ -114,12 +114,13 @@ class Rig:
                                    heartbeat_period=0.1, command_timeout=1.0,
                                    initial_positions=STAND) if sim else None
         self.feedback: list[np.ndarray] = []
+        self.efforts: list[np.ndarray] = []
         # a permissive step bound: these tests are about other rules (see test_step_bound)
         options = {"command_timeout": 0.2, "reopen_period": 0.2, "step_speed_limit": 100.0,
                    "step_margin": 1.0}
         options.update(settings)
         kwargs: dict[str, object] = {"settings": DriverSettings(**options),
-                                     "clock": self.clock, "on_feedback": self.feedback.append}
+                                     "clock": self.clock, "on_feedback": self._on_feedback}
         if factory:
             self.core = DriverCore(proto, bus_factory=self._open, **kwargs)
         else:
@@ -132,6 +133,10 @@ class Rig:
             self.core.poll(0.05)
         self.frames: list[object] = []
         self.counter = 0
+
+    def _on_feedback(self, positions: np.ndarray, efforts: np.ndarray) -> None:
+        self.feedback.append(positions)
+        self.efforts.append(efforts)
 
     def _open(self) -> can.BusABC:
         if self.faults.broken:

@@ -149,10 +149,11 @@ class Graph:
         return bool(until())
 
     def last_status(self, part: str) -> DiagnosticStatus | None:
-        """The newest status of this test's driver named ``<node name>: <part>``."""
+        """The newest status of this test's driver named ``<namespace>/<node name>: <part>``
+        (`diagnostic_names.status_prefix`)."""
         for array in reversed(self.diagnostics):
             for status in array.status:
-                if status.name == f"{self.name}: {part}":
+                if status.name == f"{self.ns.strip('/')}/{self.name}: {part}":
                     return status
         return None
 
@@ -160,11 +161,11 @@ class Graph:
 class VirtualRig:
     """A simulated manager thread on a virtual channel and a bus factory for the node."""
 
-    def __init__(self, proto: MotorProtocol) -> None:
+    def __init__(self, proto: MotorProtocol, effort: bool = True) -> None:
         self.channel = f"node-{uuid.uuid4().hex}"
         self.sim_bus = can.Bus(interface="virtual", channel=self.channel)
         self.sim = MotorManagerSim(self.sim_bus, proto, speed_limit=3.0, command_timeout=1.0,
-                                   initial_positions=STAND)
+                                   initial_positions=STAND, effort=effort)
         self.buses: list[can.BusABC] = []
         self.sim.start()
 
@@ -230,6 +231,22 @@ def test_lifecycle_via_trigger_methods_and_joint_states_converge(vrig, graph):
     assert vrig.sim.counters.targets == targets  # nothing forwarded while inactive
     assert node.trigger_cleanup() == TransitionCallbackReturn.SUCCESS
     assert all(bus._is_shutdown for bus in vrig.buses)
+
+
+@pytest.mark.parametrize("effort", [True, False])
+def test_joint_states_carry_the_managers_efforts(proto, graph, effort):
+    """The kinematic manager's axes carry no load (0 N m); a manager without effort frames
+    leaves ``effort`` empty (not zeros)."""
+    rig = VirtualRig(proto, effort=effort)
+    try:
+        node = make_driver(graph, rig)
+        assert node.trigger_configure() == TransitionCallbackReturn.SUCCESS
+        assert wait_until(lambda: len(graph.joint_states) >= 3, 2.0), "no joint_states"
+        efforts = [list(msg.effort) for msg in graph.joint_states[1:]]
+        assert efforts and all(e == ([0.0] * 12 if effort else []) for e in efforts)
+        assert node.trigger_cleanup() == TransitionCallbackReturn.SUCCESS
+    finally:
+        rig.close()
 
 
 def _change(graph: Graph, transition: int) -> bool:

@@ -21,6 +21,7 @@ from crawler_motion.model.config import (
     parse_robot,
 )
 from crawler_motion.model.kinematics import inverse_kinematics
+from crawler_motion.model.pose_limits import BodyPoseConfig
 
 SHIPPED = config_path("robot.yaml")
 RAW = yaml.safe_load(SHIPPED.read_text(encoding="utf-8"))
@@ -310,6 +311,25 @@ def test_valid_variants_load(changes, tmp_path):
         np.testing.assert_array_equal(cfg.robot.knee_sign, [1, 1, -1, 1])
     if GROUPS in changes:
         assert cfg.gait.gaits["diagonal"] == (("rf",), ("lb",), ("lf", "rb"))
+
+
+def test_the_body_pose_limits_load():
+    assert load_config().body_pose == BodyPoseConfig(max_shift=0.03, max_tilt=0.2, max_yaw=0.2,
+                                                     speed=0.03, turn_rate=0.3)
+
+
+@pytest.mark.parametrize(("changes", "expected"), [
+    ({"body_pose": DELETE}, "missing section 'body_pose'"),
+    ({"body_pose.max_tilt": DELETE}, "body_pose.max_tilt must be a number, got None"),
+    ({"body_pose.speed": 0}, "body_pose.speed must be > 0"),
+    ({"body_pose.max_shift": "wide"}, "body_pose.max_shift must be a number"),
+    ({"body_pose.turn_rate": math.inf}, "body_pose.turn_rate must be finite"),
+])
+def test_bad_body_pose_limits_name_the_field(changes, expected, tmp_path):
+    path = write(tmp_path, mutated(changes))
+    with pytest.raises(ConfigError, match=expected) as err:
+        load_config(path)
+    assert str(path) in str(err.value)
 
 
 # ---------------------------------------------------------------- unreadable files

@@ -9,7 +9,14 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from crawler_motion.model.rotations import quaternion_matrix, roll_pitch, rpy_matrix, yaw_of
+from crawler_motion.model.rotations import (
+    quaternion_matrix,
+    roll_pitch,
+    rpy_angular_acceleration,
+    rpy_angular_velocity,
+    rpy_matrix,
+    yaw_of,
+)
 
 
 def _rx(a: float) -> np.ndarray:
@@ -45,6 +52,38 @@ def test_rpy_is_fixed_axis_roll_then_pitch_then_yaw(roll: float, pitch: float, y
     np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
     assert roll_pitch(r) == pytest.approx((roll, pitch), abs=1e-9)
     assert yaw_of(r) == pytest.approx(yaw, abs=1e-9)
+
+
+def test_rpy_matrix_takes_a_batch_of_angles() -> None:
+    rpy = np.random.default_rng(3).uniform(-3.0, 3.0, (5, 2, 3))
+    batch = rpy_matrix(rpy)
+    assert batch.shape == (5, 2, 3, 3)
+    for index in np.ndindex(5, 2):
+        np.testing.assert_array_equal(batch[index], rpy_matrix(rpy[index]))
+
+
+def _skew(w: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+vectors = st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3).map(np.array)
+
+
+@given(vectors, vectors, vectors)
+def test_angular_velocity_and_acceleration_are_the_derivatives(rpy, rate, accel) -> None:
+    """dR/dt = [w]x R and dw/dt, against central differences along rpy + rate t + accel t^2/2."""
+    h = 1e-5
+
+    def angles(t: float) -> np.ndarray:
+        return rpy + rate * t + 0.5 * accel * t * t
+
+    def omega(t: float) -> np.ndarray:
+        return rpy_angular_velocity(angles(t), rate + accel * t)
+
+    r_dot = (rpy_matrix(angles(h)) - rpy_matrix(angles(-h))) / (2 * h)
+    np.testing.assert_allclose(r_dot, _skew(omega(0.0)) @ rpy_matrix(rpy), atol=1e-8)
+    np.testing.assert_allclose((omega(h) - omega(-h)) / (2 * h),
+                               rpy_angular_acceleration(rpy, rate, accel), atol=1e-8)
 
 
 @given(st.floats(-3.0, 3.0), st.floats(0.1, 10.0))

@@ -35,6 +35,7 @@ from crawler_motion.motion.gait import (
     validate_params,
 )
 from crawler_motion.motion.trajectory import Piecewise
+from crawler_motion.motion.walk_options import stance_time_range, sways
 
 CFG = load_config()
 ROBOT = CFG.robot
@@ -57,9 +58,11 @@ def expected_strides(p: WalkParams) -> np.ndarray:
     return v.stride * heading + v.turn * v.stance_time / (v.swing_time + v.stance_time) * tangent
 
 
-def join(slots: list[Slot]) -> tuple[tuple[Piecewise, ...], np.ndarray]:
-    """Every leg's whole trajectory and the slot start times."""
-    legs = tuple(Piecewise([seg for s in slots for seg in s.legs[i].segments])
+def join(slots: list[Slot], part: str = "contacts"
+         ) -> tuple[tuple[Piecewise, ...], np.ndarray]:
+    """Every leg's whole trajectory (``contacts``: the contact points; ``legs``: the foot
+    centres the IK places) and the slot start times."""
+    legs = tuple(Piecewise([seg for s in slots for seg in getattr(s, part)[i].segments])
                  for i in range(ROBOT.n_legs))
     starts = np.concatenate(([0.0], np.cumsum([s.duration for s in slots])))
     return legs, starts
@@ -95,6 +98,13 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     n = len(GAIT.gaits[v.gait])
     slot_time = (v.swing_time + v.stance_time) / n
     kinds = ["start"] * (n - 1) + ["steady"] * (n * steps) + ["stop"] * (n - 1)
+    # A crawl (always) and a diagonal walk with a transfer of 0.05 s or more sway the body:
+    # over the first support before the first lift-off, then between supports.
+    crawl = v.gait == "wave" or (v.stance_time - v.swing_time) / 2 >= 0.05 - 1e-12
+    if crawl:
+        kinds.insert(0, "start")
+        assert slots[0].group == () and slots[0].swing_time == 0.0
+        assert slots[0].duration == pytest.approx(slot_time - v.swing_time, rel=1e-12)
     assert [s.kind for s in slots] == kinds
     stand = ROBOT.standing_feet(v.body_height)
     ground = stand[:, 2]
@@ -110,43 +120,47 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     np.testing.assert_allclose(slots[-1].offsets_end, 0.0, atol=1e-12)
     for a, b in pairwise(slots):
         np.testing.assert_array_equal(a.offsets_end, b.offsets_start)
-    for s in slots:
+    for s in slots[1:] if crawl else slots:
         assert s.duration == pytest.approx(slot_time, rel=1e-12)
         assert s.swing_time == v.swing_time
+    total = sum(s.duration for s in slots)
 
-    legs, starts = join(slots)
-    assert legs[0].t_end == pytest.approx(len(slots) * slot_time, rel=1e-12)
-
-    # Starts and ends exactly standing, at rest. A polynomial's rounding error in a derivative
-    # grows as 1/T^k with its segment's duration T: a 30 µs dwell gives 1e-7 m/s² of rounding
-    # at its end, so the bound uses the shortest segment.
-    shortest = min(float(np.diff(leg.breaks).min()) for leg in legs)
-    tol_a_end = TOL / min(slot_time, shortest) ** 2
-    for t in (0.0, legs[0].t_end):
-        pos, vel, acc = (x[0] for x in states(legs, np.array([t])))
-        np.testing.assert_allclose(pos, stand, atol=1e-12)
-        np.testing.assert_allclose(vel, 0.0, atol=tol_v)
-        np.testing.assert_allclose(acc, 0.0, atol=tol_a_end)
-
-    # C0, C1, C2 at every junction (slot boundaries, swing/dwell, B and D), from the
-    # coefficients: at u = 1 (sum c_i, sum i c_i / T, ...) against u = 0 of the next segment.
-    i_pow = np.arange(legs[0].coeffs.shape[-1])
-    for leg in legs:
-        c, dur = leg.coeffs, leg.durations[:, None]
-        left = (c.sum(-1), (c * i_pow).sum(-1) / dur, (c * i_pow * (i_pow - 1)).sum(-1) / dur**2)
-        right = (c[..., 0], c[..., 1] / dur, 2 * c[..., 2] / dur**2)
-        for x, y, tol in zip(left, right, (TOL, tol_v, tol_a), strict=True):
-            jump = np.abs(x[:-1] - y[1:]).max()
-            assert jump <= tol, f"discontinuity {jump:.3g} at a junction"
+    for part in ("legs", "contacts"):  # the foot centres (IK targets) and the contact points
+        legs, starts = join(slots, part)
+        assert legs[0].t_end == pytest.approx(total, rel=1e-12)
+        # Starts and ends exactly standing, at rest. A polynomial's rounding error in a
+        # derivative grows as 1/T^k with its segment's duration T: a 30 µs dwell gives
+        # 1e-7 m/s² of rounding at its end, so the bound uses the shortest segment.
+        shortest = min(float(np.diff(leg.breaks).min()) for leg in legs)
+        tol_a_end = TOL / min(slot_time, shortest) ** 2
+        for t in (0.0, legs[0].t_end):
+            pos, vel, acc = (x[0] for x in states(legs, np.array([t])))
+            np.testing.assert_allclose(pos, stand, atol=1e-12)
+            np.testing.assert_allclose(vel, 0.0, atol=tol_v)
+            np.testing.assert_allclose(acc, 0.0, atol=tol_a_end)
+        # C0, C1, C2 at every junction (slot boundaries, swing/dwell, B and D), from the
+        # coefficients: at u = 1 (sum c_i, sum i c_i / T, ...) against u = 0 of the next one.
+        i_pow = np.arange(legs[0].coeffs.shape[-1])
+        for leg in legs:
+            c, dur = leg.coeffs, leg.durations[:, None]
+            left = (c.sum(-1), (c * i_pow).sum(-1) / dur,
+                    (c * i_pow * (i_pow - 1)).sum(-1) / dur**2)
+            right = (c[..., 0], c[..., 1] / dur, 2 * c[..., 2] / dur**2)
+            for x, y, tol in zip(left, right, (TOL, tol_v, tol_a), strict=True):
+                jump = np.abs(x[:-1] - y[1:]).max()
+                assert jump <= tol, f"discontinuity {jump:.3g} at a junction"
 
     # Sample every slot (and its swing end) at once.
-    per_slot = [starts[k] + np.union1d(np.linspace(0.0, slot_time, 41), s.swing_time)
+    per_slot = [starts[k] + np.union1d(np.linspace(0.0, s.duration, 41), s.swing_time)
                 for k, s in enumerate(slots)]
     t = np.concatenate(per_slot)
     k_of = np.repeat(np.arange(len(slots)), [len(x) for x in per_slot])
     tau = t - starts[k_of]
     pos, vel, _ = states(legs, t)
-    off = pos[:, :, :2] - stand[:, :2]
+    sway = Piecewise([seg for s in slots for seg in s.sway.segments]).evaluate(t)[0]
+    if not crawl:
+        assert np.abs(sway).max() == 0.0
+    off = pos[:, :, :2] + sway[:, None, :2] - stand[:, :2]  # planned points, without the sway
     in_group = np.array([[i in s.group for i in range(4)] for s in slots])
     swing_time = np.array([s.swing_time for s in slots])
     on_ground = ~in_group[k_of] | (tau >= swing_time[k_of] - 1e-12)[:, None]
@@ -268,7 +282,9 @@ def test_diagonal_root_angles_at_the_start_match_the_study():
 def test_wave_gait_one_leg_at_a_time(steps):
     p = params(gait="wave")
     slots, _ = check_walk(p, steps)
-    assert len(slots) == 4 * steps + 6
+    assert len(slots) == 4 * steps + 7  # the first: the sway before the first lift-off
+    assert slots[0].group == ()
+    slots = slots[1:]
     table = [tuple(IDX[leg] for leg in group) for group in GAIT.gaits["wave"]]
     assert all(len(s.group) == 1 for s in slots)
     # Groups follow the table cyclically; in steady state every leg swings once per step.
@@ -285,51 +301,93 @@ def test_wave_gait_one_leg_at_a_time(steps):
     assert lifted.any(axis=0).all()  # every leg does swing
 
 
+def polygon_margin(points: np.ndarray) -> float:
+    """Distance [m] of the origin inside the convex polygon of ``points`` (k, 2), vertices
+    sorted by angle about their mean (> 0 inside)."""
+    centre = points.mean(axis=0)
+    ring = points[np.argsort(np.arctan2(*(points - centre).T[::-1]))]
+    return min(_edge_margin(a, b, centre)
+               for a, b in zip(ring, np.roll(ring, -1, axis=0), strict=True))
+
+
+def _edge_margin(a: np.ndarray, b: np.ndarray, inside: np.ndarray) -> float:
+    """Signed distance of the origin from the line a-b, positive on ``inside``'s side."""
+    e = b - a
+    normal = np.array([-e[1], e[0]]) / np.linalg.norm(e)
+    return float(np.sign(np.dot(inside - a, normal)) * np.dot(-a, normal))
+
+
 def stability_margins(p: WalkParams, steps: int = 2) -> list[tuple[str, str, float]]:
-    """(slot kind, swinging leg, minimum support margin during its swing) for every slot."""
+    """(slot kind, lifted leg or "-", minimum support margin of the body centre) for every
+    swing (three feet) and every transfer (four feet) of a walk, from the contact points."""
     slots = list(iter_walk(CFG, p, steps))
     legs, starts = join(slots)
     out = []
     for k, s in enumerate(slots):
-        t = starts[k] + np.linspace(0.0, s.swing_time, 121)
+        if s.swing_time:
+            t = starts[k] + np.linspace(0.0, s.swing_time, 121)
+            pos = states(legs, t)[0]
+            stance = [i for i in range(4) if i not in s.group]
+            assert len(stance) == 3
+            m = min(support_margin(pos[j, stance, :2]) for j in range(len(t)))
+            out.append((s.kind, LEGS[s.group[0]], m))
+        t = starts[k] + np.linspace(s.swing_time, s.duration, 41)
         pos = states(legs, t)[0]
-        stance = [i for i in range(4) if i not in s.group]
-        assert len(stance) == 3
-        m = min(support_margin(pos[j, stance, :2]) for j in range(len(t)))
-        out.append((s.kind, LEGS[s.group[0]], m))
+        out.append((s.kind, "-", min(polygon_margin(pos[j, :, :2]) for j in range(len(t)))))
     return out
 
 
-def test_wave_gait_steady_state_is_statically_stable():
-    # Duty factor 3/4 (stance = 3 x swing) is the stability limit of a quadruped wave gait:
-    # the margin touches 0 at lift-off/touch-down of every leg but never goes negative.
-    for kind, leg, m in stability_margins(params(gait="wave")):
-        if kind == "steady":
-            assert m >= -TOL, (kind, leg, m)
-    # A longer stance (duty factor > 3/4) gives a positive margin.
-    slow = stability_margins(params(gait="wave", stance_time=4 * GAIT.swing_time))
-    assert min(m for kind, _, m in slow if kind == "steady") > 1e-3
-
-
-# Static stability of whole wave walks. Counterexamples found (default step, body height):
-# - forward: start slot 2 (LF swings, LB/RB/RF support) and stop slot 2 (LB swings) have the
-#   body centre ~9.0 mm OUTSIDE the support triangle during the whole swing (also with
-#   stance = 4 x swing: ~7.8 mm);
-# - backward (heading pi): every steady slot ~17.3 mm outside -- the swing order LB, LF, RB, RF
-#   is the forward creep order and is not reversed for a backward walk;
-# - sideways (heading pi/2): steady slots ~9.7 mm outside; turning in place: ~8.0 mm outside.
-_UNSTABLE = pytest.mark.xfail(strict=True, reason="known: wave walk not statically stable")
+@pytest.mark.parametrize("margin", [0.0, 0.015, 0.03])
+def test_wave_walk_keeps_the_requested_margin_in_steady_state(margin):
+    for kind, leg, m in stability_margins(params(gait="wave", margin=margin)):
+        assert m >= margin - TOL, (kind, leg, m)
 
 
 @pytest.mark.parametrize("overrides", [
-    pytest.param({}, marks=_UNSTABLE, id="forward-with-start-stop"),
-    pytest.param({"heading": math.pi}, marks=_UNSTABLE, id="backward"),
-    pytest.param({"heading": math.pi / 2}, marks=_UNSTABLE, id="sideways"),
-    pytest.param({"stride": 0.0, "turn": 0.3}, marks=_UNSTABLE, id="turn-in-place"),
+    pytest.param({}, id="forward-with-start-stop"),
+    pytest.param({"heading": math.pi}, id="backward"),
+    pytest.param({"heading": math.pi / 2}, id="sideways"),
+    pytest.param({"heading": -math.pi / 2}, id="sideways-right"),
+    pytest.param({"heading": 0.8}, id="diagonal-heading"),
+    pytest.param({"heading": -2.4}, id="diagonal-back-right"),
+    pytest.param({"stride": 0.0, "turn": 0.3}, id="turn-in-place"),
+    pytest.param({"stride": 0.0, "turn": -0.3}, id="turn-in-place-cw"),
+    pytest.param({"turn": 0.2}, id="forward-turning"),
+    pytest.param({"stride": 0.08, "swing_time": 0.4}, id="longest-stride"),
 ])
 def test_wave_walk_is_statically_stable_throughout(overrides):
-    for kind, leg, m in stability_margins(params(gait="wave", **overrides)):
-        assert m >= -TOL, f"{kind} slot, {leg} swinging: centre {-m * 1e3:.1f} mm outside"
+    # The default margin (15 mm), at every sample of every swing and transfer, start and stop
+    # half steps included (before the change: the centre up to 17 mm OUTSIDE the support).
+    p = params(gait="wave", **overrides)
+    assert validate_params(p, CFG).margin == GAIT.stability_margin == 0.015
+    for kind, leg, m in stability_margins(p):
+        assert m >= 0.015 - TOL, f"{kind} slot, {leg} lifted: centre {m * 1e3:.1f} mm inside"
+
+
+@pytest.mark.parametrize(("heading", "first_four"), [
+    (0.0, ["lb", "lf", "rb", "rf"]),  # hind, front on the left, then on the right
+    (math.pi, ["rf", "rb", "lf", "lb"]),  # backward: the forward order reversed
+    (math.pi / 2, ["rb", "lb", "rf", "lf"]),  # left: the right legs are the hind legs
+    (-math.pi / 2, ["lf", "rf", "lb", "rb"]),
+])
+def test_wave_swing_order_follows_the_direction_of_travel(heading, first_four):
+    slots = list(iter_walk(CFG, params(gait="wave", heading=heading), 1))
+    assert [LEGS[s.group[0]] for s in slots[1:5]] == first_four
+
+
+def test_a_margin_the_support_cannot_give_is_refused_with_the_reason():
+    with pytest.raises(GaitError, match=r"cannot be executed: leg .* from the shoulder"):
+        plan_walk(CFG, params(gait="wave", margin=0.05), 1)  # the sway needs too much reach
+    with pytest.raises(GaitError, match=r"margin = 0.051 m is outside \[0.0, 0.05\] m"):
+        plan_walk(CFG, params(gait="wave", margin=0.051), 1)
+
+
+def test_a_crawl_without_time_to_transfer_is_refused():
+    with pytest.raises(GaitError, match="all-feet-down transfer"):
+        plan_walk(CFG, params(gait="wave", stance_time=3 * GAIT.swing_time), 1)
+    with pytest.raises(GaitError, match="would turn at"):  # a transfer of 0.05 s is too fast
+        plan_walk(CFG, params(gait="wave", stance_time=3 * GAIT.swing_time + 4 * 0.05), 1)
+    plan_walk(CFG, params(gait="wave", stance_time=3 * GAIT.swing_time + 4 * 0.15), 1)
 
 
 # --- any walk within the limits ---------------------------------------------------------------
@@ -357,7 +415,7 @@ def test_turning_in_place_moves_each_foot_along_its_tangent(gait, turn):
             abs(turn) * v.stance_time / (v.swing_time + v.stance_time)
             * np.linalg.norm(stand[i]), rel=1e-12)
     # The stance feet move clockwise relative to the body for a counter-clockwise turn.
-    first = slots[0]
+    first = next(s for s in slots if s.group)
     for i in range(4):
         if i not in first.group:
             d = first.offsets_end[i]
@@ -407,8 +465,8 @@ walks = st.fixed_dictionaries({
 
 def make_params(d: dict) -> WalkParams:
     d = dict(d)
-    n = len(GAIT.gaits[d["gait"]])
-    d["stance_time"] = d.pop("stance_factor") * (n - 1) * d["swing_time"]
+    d["stance_time"] = d.pop("stance_factor") * stance_time_range(CFG, d["gait"],
+                                                                  d["swing_time"])[0]
     return params(**d)
 
 
@@ -418,7 +476,7 @@ def assert_refusal_is_genuine(p: WalkParams, steps: int, msg: str) -> None:
     fast = re.search(r"(\w+)_(root|shoulder|knee)_joint would turn at .* at t = ([0-9.]+) s", msg)
     if fast:
         i, j = IDX[fast.group(1)], ("root", "shoulder", "knee").index(fast.group(2))
-        legs, _ = join(list(iter_walk(CFG, p, steps)))
+        legs, _ = join(list(iter_walk(CFG, p, steps)), "legs")
         t = float(fast.group(3)) + np.linspace(-1e-3, 1e-3, 21)
         pos, vel, _ = states(legs, t)
         rates = joint_velocities(ROBOT, inverse_kinematics(ROBOT, pos), vel)
@@ -429,7 +487,7 @@ def assert_refusal_is_genuine(p: WalkParams, steps: int, msg: str) -> None:
     when = re.search(r"at t = ([0-9.]+) s", msg)
     assert leg and when, msg
     i = IDX[leg.group(1)]
-    legs, _ = join(list(iter_walk(CFG, p, steps)))
+    legs, _ = join(list(iter_walk(CFG, p, steps)), "legs")
     t = float(when.group(1)) + np.linspace(-1e-3, 1e-3, 21)
     pos = states(legs, t)[0]
     failing = 0
@@ -451,11 +509,14 @@ def test_any_walk_within_the_limits(d, steps):
     slots, _ = check_walk(p, steps)
     try:
         plan = plan_walk(CFG, p, steps)
-    except GaitError as exc:  # refused as a whole: the workspace or a joint limit
+    except GaitError as exc:  # refused as a whole: the workspace, a joint limit, the margin
+        if "stability margin" in str(exc):
+            assert p.gait == "wave"
+            return
         assert "cannot be executed" in str(exc)
         assert_refusal_is_genuine(p, steps, str(exc))
         return
-    legs, _ = join(slots)
+    legs, _ = join(slots, "legs")
     t = np.linspace(0.0, plan.duration, 200)
     np.testing.assert_array_equal(plan.evaluate(t)[0], states(legs, t)[0])
     q, _ = plan.joints(t)
@@ -508,21 +569,22 @@ def test_plan_walk_refuses_bad_step_counts(steps):
 def test_range_limits_themselves_are_accepted():
     for overrides in ({"stride": GAIT.max_stride}, {"turn": GAIT.max_turn},
                       {"turn": -GAIT.max_turn}, {"gait": "wave",
-                                                  "stance_time": 3 * GAIT.swing_time},
+                                                  "stance_time": 3 * GAIT.swing_time + 0.2},
                       {"body_height": ROBOT.body_height_range[0]}):
         validate_params(params(**overrides), CFG)
 
 
 def test_walk_leaving_the_joint_limits_is_refused_naming_leg_joint_and_time():
     # Passes every range check, but at the top of the body-height range a full stride plus a
-    # full turn stretches the RF knee beyond its lower limit (nearly straight).
+    # full turn stretches the RB knee beyond its lower limit (nearly straight; the foot's roll
+    # moves its centre, so it is RB before the RF of the contact points).
     p = params(stride=GAIT.max_stride, turn=GAIT.max_turn,
                body_height=ROBOT.body_height_range[1])
     validate_params(p, CFG)
     with pytest.raises(GaitError) as info:
         plan_walk(CFG, p, 1)
     msg = str(info.value)
-    assert re.search(r"leg rf knee joint", msg), msg
+    assert re.search(r"leg rb knee joint", msg), msg
     assert re.search(r"at t = [0-9.]+ s", msg), msg
     assert_refusal_is_genuine(p, 1, msg)
 
@@ -560,7 +622,8 @@ def test_sequencer_walks_until_stopped_then_stands(gait, walking):
     slots = walk_online(seq, walking)
     n = seq.n_groups
     assert [s.kind for s in slots].count("stop") == n - 1
-    assert len(slots) == max(walking, n - 1) + n - 1
+    shift = int(gait == "wave")  # a crawl sways over its support before the first lift-off
+    assert len(slots) == max(walking - shift, n - 1) + n - 1 + shift
     np.testing.assert_allclose(seq.offsets, 0.0, atol=1e-12)
     np.testing.assert_allclose(slots[-1].offsets_end, 0.0, atol=1e-12)
     for a, b in pairwise(slots):
@@ -636,7 +699,7 @@ def test_sequencer_with_parameter_changes_always_stops_standing(gait, changes, w
     for a, b in pairwise(slots):
         np.testing.assert_array_equal(a.offsets_end, b.offsets_start)
     # Foot positions continue across slots (C0, and rest at the boundaries).
-    legs, _ = join(slots)
+    legs, _ = join(slots, "legs")
     for leg in legs:
         for left, right in pairwise(leg.segments):
             np.testing.assert_allclose(left.evaluate(np.array([left.duration]))[0][0],
@@ -680,3 +743,101 @@ def test_a_walk_faster_than_the_joint_velocity_limits_is_refused(swing_time, ref
     with pytest.raises(GaitError, match=r"would turn at [0-9.]+ rad/s .* above its velocity "
                                         r"limit 10 rad/s; use a longer swing_time"):
         plan_walk(CFG, p, 1)
+
+
+@pytest.mark.parametrize(("stance_time", "swaying"), [
+    (0.6, False), (0.6 + 2 * 0.05 - 1e-9, False), (0.6 + 2 * 0.05, True), (1.2, True)])
+def test_a_diagonal_walk_with_a_transfer_sways_onto_each_support_line(stance_time, swaying):
+    p = params(gait="diagonal", stance_time=stance_time)
+    assert sways(CFG, "diagonal", 0.6, stance_time) == swaying
+    if not swaying:
+        return
+    slots = list(iter_walk(CFG, p, 2))
+    legs, starts = join(slots)
+    for k, s in enumerate(slots):
+        if not s.group:
+            continue
+        # At the end of each swing the body centre is on the line of the two stance feet.
+        pos = states(legs, np.array([starts[k] + s.swing_time]))[0][0]
+        a, b = (pos[i, :2] for i in range(4) if i not in s.group)
+        cross = (b - a)[0] * (-a)[1] - (b - a)[1] * (-a)[0]
+        assert abs(cross) / np.linalg.norm(b - a) <= 1e-9, (k, s.kind)
+
+
+# --- the continuous stance profile ------------------------------------------------------------
+
+def junction_jumps(legs: tuple[Piecewise, ...]) -> tuple[float, float, float]:
+    """Largest jump of position [m], velocity [m/s], acceleration [m/s²] at any junction."""
+    worst = [0.0, 0.0, 0.0]
+    for leg in legs:
+        for t in leg.breaks[1:-1]:
+            before = [x[0] for x in leg.evaluate(np.array([t - 1e-9]))]
+            after = [x[0] for x in leg.evaluate(np.array([t + 1e-9]))]
+            for k in range(3):
+                worst[k] = max(worst[k], float(np.abs(after[k] - before[k]).max()))
+    return tuple(worst)  # type: ignore[return-value]
+
+
+@pytest.mark.parametrize("overrides", [{}, {"heading": math.pi / 2, "stride": 0.04},
+                                       {"turn": 0.2}, {"stride": 0.0, "turn": -0.25}])
+def test_continuous_stance_glides_and_touches_down_at_ground_speed(overrides):
+    p = params(gait="diagonal", stance_profile="continuous", **overrides)
+    plan = plan_walk(CFG, p, 3)
+    for legs in (plan.legs, plan.contacts):
+        jumps = junction_jumps(legs)
+        assert jumps[0] <= 1e-9 and jumps[1] <= 1e-6 and jumps[2] <= 1e-3, jumps  # C² (±1 ns)
+    stand = ROBOT.standing_feet()
+    pos, vel, _ = plan.evaluate(np.array([0.0, plan.duration]))
+    np.testing.assert_allclose(pos, np.stack([stand, stand]), atol=1e-12)
+    np.testing.assert_allclose(vel, 0.0, atol=1e-9)
+    stride = GaitSequencer(CFG, p).stride_vectors()
+    v_stance = -stride / validate_params(p, CFG).stance_time  # relative to the body [m/s]
+    for k, s in enumerate(plan.slots):
+        if s.kind != "steady":
+            continue
+        t = plan.starts[k] + np.array([0.0, 0.25, 0.5, 0.75, 1.0]) * s.duration
+        v = np.stack([leg.evaluate(t)[1] for leg in plan.contacts], axis=1)  # contact points
+        for i in range(4):
+            if i in s.group:  # lift-off and touch-down with the stance feet's velocity
+                np.testing.assert_allclose(v[[0, -1], i, :2], [v_stance[i]] * 2, atol=1e-3)
+            else:  # the body never stops: constant speed through the slot
+                np.testing.assert_allclose(v[:, i, :2], [v_stance[i]] * 5, atol=1e-3)
+
+
+def test_continuous_stance_ramps_at_start_and_stop_without_stopping_in_between():
+    p = params(gait="diagonal", stance_profile="continuous")
+    plan = plan_walk(CFG, p, 2)
+    t = np.linspace(0.0, plan.duration, 2001)[1:-1]
+    _, vel, _ = plan.evaluate(t)
+    stance_speed = np.linalg.norm(vel[:, :, :2], axis=-1).min(axis=1)  # slowest foot
+    assert stance_speed.min() > 0.0  # no instant with a foot at rest inside the walk
+    rest = plan_walk(CFG, params(gait="diagonal"), 2).evaluate(t)[1]
+    assert np.linalg.norm(rest[:, :, :2], axis=-1).min() <= 1e-9  # the rest profile does stop
+
+
+@pytest.mark.parametrize(("overrides", "reason"), [
+    ({"gait": "wave"}, "sways its body"),
+    ({"gait": "diagonal", "stance_time": 0.65}, "needs stance_time = 1 x swing_time"),
+    ({"gait": "diagonal", "stance_time": 0.9}, "sways its body"),
+    ({"gait": "diagonal", "stance_profile": "glide"}, "stance_profile 'glide' unknown"),
+])
+def test_continuous_stance_is_refused_where_it_cannot_hold(overrides, reason):
+    with pytest.raises(GaitError, match=reason):
+        plan_walk(CFG, params(**{"stance_profile": "continuous", **overrides}), 1)
+
+
+def test_a_copy_plans_on_without_changing_the_original():
+    # The planner tries the next slot on a copy and drops it if the slot fails its check.
+    import copy
+
+    seq = GaitSequencer(CFG, params(heading=math.pi / 2))
+    first = [seq.next_slot() for _ in range(2)]
+    trial = copy.copy(seq)
+    trial.set_params(params(heading=math.pi / 2, stride=0.08))
+    trial.next_slot()
+    again = copy.copy(seq)
+    a, b = seq.next_slot(), again.next_slot()
+    for la, lb in zip(a.legs, b.legs, strict=True):
+        np.testing.assert_array_equal(la.coeffs, lb.coeffs)
+    np.testing.assert_allclose(a.legs[0].evaluate(0.0)[0], first[-1].legs[0].evaluate(
+        first[-1].duration)[0], atol=1e-12)

@@ -493,3 +493,24 @@ def test_zero_stride_is_a_step_in_place():
         p = s.dense(k)[0]
         np.testing.assert_allclose(p[:, :2], np.broadcast_to(CENTER[:2], p[:, :2].shape),
                                    atol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.05, 2.0), st.lists(st.floats(0.01, 1.0), min_size=1, max_size=4),
+       st.integers(0, 2**31 - 1))
+def test_minus_path_is_the_difference_of_the_two_paths(duration, shares, seed):
+    from crawler_motion.motion.trajectory import minus_path, rest_segment
+
+    rng = np.random.default_rng(seed)
+    path = rest_segment(rng.normal(size=3), rng.normal(size=3), duration)
+    widths = np.array(shares) / sum(shares) * duration
+    segments = [rest_segment(rng.normal(size=3), rng.normal(size=3), w) for w in widths]
+    out = minus_path(segments, path)
+    t0 = 0.0
+    for seg, diff in zip(segments, out, strict=True):
+        tau = np.linspace(0.0, seg.duration, 7)
+        for k in range(3):  # position, velocity, acceleration
+            expected = seg.evaluate(tau)[k] - path.evaluate(t0 + tau)[k]
+            np.testing.assert_allclose(diff.evaluate(tau)[k], expected, atol=1e-9 / seg.duration
+                                       ** k)
+        t0 += seg.duration

@@ -9,12 +9,14 @@ import pytest
 from crawler_motion.model.config import load_config
 from crawler_motion.motion.walk_options import (
     OPTIONS,
+    POSE_OPTIONS,
     WALK_OPTIONS,
     OptionType,
     Sign,
     clearance_error,
     field_ranges,
     options_of,
+    pose_height_error,
     stance_time_error,
     stance_time_range,
 )
@@ -26,15 +28,16 @@ G = CFG.gait
 def test_keys_and_flags():
     assert [o.name for o in options_of("walk")] == [
         "steps", "gait", "profile", "stride", "heading", "turn", "lift", "arc", "swing_time",
-        "stance_time"]
+        "stance_time", "stance_profile", "margin"]
     assert [o.name for o in options_of("stand")] == ["body_height"]
     assert options_of("stop") == ()
     assert [o.flag for o in WALK_OPTIONS] == [
         "--steps", "--gait", "--profile", "--stride", "--heading", "--turn", "--lift", "--arc",
-        "--swing-time", "--stance-time", "--body-height"]
+        "--swing-time", "--stance-time", "--stance-profile", "--margin", "--body-height"]
     assert OPTIONS["swing_time"].label == "swing time"
     assert [o.name for o in WALK_OPTIONS if o.parameter] == [
-        "gait", "profile", "stride", "lift", "arc", "swing_time", "body_height"]
+        "gait", "profile", "stride", "lift", "arc", "swing_time", "stance_profile", "margin",
+        "body_height"]
 
 
 @pytest.mark.parametrize(("name", "lo", "hi", "unit", "sign"), [
@@ -59,8 +62,46 @@ def test_choices_from_the_config():
     assert OPTIONS["gait"].allowed(CFG) == tuple(G.gaits)
     assert OPTIONS["profile"].allowed(CFG) == tuple(G.profiles)
     assert OPTIONS["steps"].type is OptionType.COUNT
-    assert set(field_ranges(CFG)) == {o.name for o in WALK_OPTIONS
+    assert set(field_ranges(CFG)) == {o.name for o in OPTIONS.values()
                                       if o.type is OptionType.NUMBER}
+
+
+def test_pose_options_are_the_pose_command_keys():
+    assert [o.name for o in options_of("pose")] == ["x", "y", "z", "roll", "pitch", "yaw"]
+    assert [o.flag for o in POSE_OPTIONS] == ["--x", "--y", "--z", "--roll", "--pitch", "--yaw"]
+    assert not any(o.parameter or o.default for o in POSE_OPTIONS)  # absent: 0
+    assert not set(POSE_OPTIONS) & set(WALK_OPTIONS)
+
+
+@pytest.mark.parametrize(("name", "lo", "hi", "unit"), [
+    ("x", -0.03, 0.03, "m"),  # body_pose.max_shift
+    ("y", -0.03, 0.03, "m"),
+    ("z", -0.04, 0.04, "m"),  # the span of body_height_range [0.05, 0.09]
+    ("roll", -0.2, 0.2, "rad"),  # body_pose.max_tilt
+    ("pitch", -0.2, 0.2, "rad"),
+    ("yaw", -0.2, 0.2, "rad"),  # body_pose.max_yaw
+])
+def test_pose_ranges_from_the_config(name, lo, hi, unit):
+    option = OPTIONS[name]
+    assert option.range(CFG) == pytest.approx((lo, hi))
+    assert field_ranges(CFG)[name] == (*option.range(CFG), unit)
+
+
+@pytest.mark.parametrize(("height", "z", "refused"), [
+    (0.07, 0.02, False),  # exactly the top of body_height_range
+    (0.07, -0.02, False),  # exactly the bottom
+    (0.07, 0.02 + 1e-13, False),  # rounding
+    (0.07, 0.0201, True),
+    (0.07, -0.0201, True),
+    (0.09, 0.001, True),
+    (0.05, 0.04, False),
+])
+def test_pose_height_rule(height, z, refused):
+    problem = pose_height_error(CFG, height, z)
+    assert (problem is not None) == refused
+    if refused:
+        assert problem.startswith(f"z = {z:g} m") and "body_height_range [0.05, 0.09] m" in problem
+        assert f"[{0.05 - height:g}, {0.09 - height:g}] m" in problem
 
 
 @pytest.mark.parametrize(("lift", "arc", "refused"), [
@@ -82,12 +123,16 @@ def test_clearance_rule(lift, arc, refused):
     ("diagonal", 0.6, 0.6 - 1e-13, False),
     ("diagonal", 0.6, 0.59, True),
     ("diagonal", 0.6, 6.01, True),
-    ("wave", 0.5, 1.5, False),
-    ("wave", 0.5, 1.0, True),
+    ("wave", 0.5, 1.7, False),  # 3 x swing + 4 x 0.05 s of transfer (the body's sway)
+    ("wave", 0.5, 1.7 - 1e-13, False),
+    ("wave", 0.5, 1.69, True),
+    ("wave", 0.5, 1.5, True),
+    ("wave", 0.5, 15.0, False),
+    ("wave", 0.5, 15.01, True),
 ])
 def test_stance_time_rule(gait, swing, stance, refused):
     lo, hi = stance_time_range(CFG, gait, swing)
-    assert hi == pytest.approx(10 * lo)
+    assert hi == pytest.approx(10 * (len(CFG.gait.gaits[gait]) - 1) * swing)
     problem = stance_time_error(CFG, gait, swing, stance)
     assert (problem is not None) == refused
     if refused:

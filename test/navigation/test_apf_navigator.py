@@ -28,6 +28,7 @@ from crawler_motion.navigation.navigator import (
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS
 
 RADIUS = 0.2  # virtual radius given to the navigator [m]; the disc is RADIUS + margin
+MARGIN = NavigatorSettings().margin  # added to the virtual radius [m]
 
 
 def view_of(boxes, origin=(-2.0, -2.0), size=(4.0, 4.0), res=0.05) -> TerrainView:
@@ -118,10 +119,10 @@ def test_goto_arrives_within_the_tolerance_and_stops() -> None:
 
 
 @pytest.mark.parametrize("y, side, heading, sign", [
-    (RADIUS + 0.05 + 0.10, Side.RIGHT, 0.0, 0),  # at ρ_o: along the wall
-    (RADIUS + 0.05 + 0.05, Side.RIGHT, 0.0, +1),  # too close: away from the wall
-    (RADIUS + 0.05 + 0.17, Side.RIGHT, 0.0, -1),  # in the band, too far: towards it
-    (RADIUS + 0.05 + 0.10, Side.LEFT, math.pi, 0),  # the wall on the left: the other way
+    (RADIUS + MARGIN + 0.10, Side.RIGHT, 0.0, 0),  # at ρ_o: along the wall
+    (RADIUS + MARGIN + 0.05, Side.RIGHT, 0.0, +1),  # too close: away from the wall
+    (RADIUS + MARGIN + 0.17, Side.RIGHT, 0.0, -1),  # in the band, too far: towards it
+    (RADIUS + MARGIN + 0.10, Side.LEFT, math.pi, 0),  # the wall on the left: the other way
 ])
 def test_follow_walks_along_a_wall_at_the_standoff(y, side, heading, sign) -> None:
     nav = ApfNavigator()

@@ -105,7 +105,7 @@ def test_parse_valid(text, expected):
     ('{"command": "walk", "swing_time": 5.01}', "outside [0.1, 5] s"),
     ('{"command": "walk", "swing_time": 0.6, "stance_time": 0.5}', "needs stance_time in"),
     ('{"command": "walk", "gait": "wave", "swing_time": 0.5, "stance_time": 1.0}',
-     "wave gait (4 groups) needs stance_time in [1.5, 15] s"),
+     "wave gait (4 groups) needs stance_time in [1.7, 15] s"),
     ('{"command": "walk", "swing_time": 0.5, "stance_time": 5.1}', "needs stance_time in"),
 ])
 def test_parse_refused(text, fragment):
@@ -135,7 +135,8 @@ def test_apply_merges_and_validates_with_base():
     cmd = parse_gait_command('{"command": "walk", "stride": 0.04, "gait": "wave"}', CFG)
     p = cmd.apply(BASE, CFG)
     assert (p.stride, p.gait, p.lift) == (0.04, "wave", BASE.lift)
-    assert p.stance_time == pytest.approx(3 * BASE.swing_time)  # recomputed for the new gait
+    # recomputed for the new gait: 3 swings and 4 all-feet-down transfers (the body's sway)
+    assert p.stance_time == pytest.approx(3 * BASE.swing_time + 4 * CFG.gait.transfer_time)
     # arc is fine on its own, but not with this base's lift
     cmd = parse_gait_command('{"command": "walk", "arc": 0.035}', CFG)
     with pytest.raises(CommandError, match="walk refused: arc"):

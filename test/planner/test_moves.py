@@ -16,7 +16,7 @@ from crawler_motion.planner.moves import (
     MoveController,
     outside_tolerance,
 )
-from crawler_motion.planner.state import ESTOP, MOVING, STANDING, STOPPING
+from crawler_motion.planner.state import ESTOP, IDLE, MOVING, STANDING, STOPPING
 
 CFG = load_config()
 ROBOT = CFG.robot
@@ -46,20 +46,26 @@ def controller(state=STANDING, measured=True, paused=False) -> MoveController:
     return moves
 
 
+def moving() -> MoveController:
+    moves = controller(IDLE)
+    moves.start(0.0, STAND, STANDING, "stand")
+    return moves
+
+
 @pytest.mark.parametrize("make, now, reason", [
     (lambda: controller(ESTOP), 0.5, "e-stop latched"),
     (lambda: controller(STOPPING), 0.5, "refused while STOPPING"),
-    (lambda: controller(MOVING), 0.5, "move is in progress"),
+    (lambda: moving(), 0.5, "a stand move is in progress"),
     (lambda: controller(paused=True), 0.5, "paused"),
     (lambda: controller(measured=False), 0.5, "no measured joint_states"),
     (lambda: controller(), 1.01, r"1\.01 s old \(max 1 s\)"),
 ])
 def test_refusals(make, now, reason):
     moves = make()
-    state = moves.ctx.state
+    state, move = moves.ctx.state, moves.move
     with pytest.raises(CommandError, match=reason):
         moves.start(now, STAND, STANDING, "stand")
-    assert moves.ctx.state == state and moves.move is None
+    assert moves.ctx.state == state and moves.move is move
 
 
 def test_a_measurement_exactly_max_age_old_still_starts_a_move():

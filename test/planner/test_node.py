@@ -23,6 +23,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 from crawler_motion.model.config import load_config
+from crawler_motion.model.kinematics import foot_jacobians
 from crawler_motion.motion.gait import standing_pose
 from crawler_motion.planner.moves import sitting_pose
 from crawler_motion.planner.node import STATUS_MIN_INTERVAL, PlannerNode
@@ -44,6 +45,7 @@ class Probe(Node):
         self.commands: list[tuple[float, JointState]] = []
         self.statuses: list[dict] = []
         self.measured = SIT.copy()
+        self.effort: np.ndarray | None = None  # joint order [N m]; None: joint_states without
         self.lock = threading.Lock()
         status_qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                                 durability=DurabilityPolicy.TRANSIENT_LOCAL)  # keep every one
@@ -62,7 +64,9 @@ class Probe(Node):
     def _publish_measured(self) -> None:
         order = list(reversed(range(12)))  # any order: the planner sorts by name
         msg = JointState(name=[NAMES[i] for i in order],
-                         position=[float(self.measured[i]) for i in order])
+                         position=[float(self.measured[i]) for i in order],
+                         effort=[] if self.effort is None else [float(self.effort[i])
+                                                                for i in order])
         msg.header.stamp = self.get_clock().now().to_msg()
         self.joint_states.publish(msg)
 
@@ -371,3 +375,58 @@ def test_driver_status_ends_a_walk_and_bad_text_is_ignored(ros):
                                         "reason": "~/estop service"})))
     status = probe.wait_state("IDLE", mark)
     assert "ended" in status["last_event"] and status["driver"] == "estop"
+
+
+def test_foot_contacts_are_unknown_without_efforts_and_estimated_with_them(ros):
+    """joint_states without efforts: every foot unknown on foot_contacts and in the status, the
+    planner's foot contacts status at WARN; with efforts holding 2 N on each foot: contact."""
+    probe = ros.probe
+    contacts: list[dict] = []
+    statuses: list[DiagnosticStatus] = []
+    probe.create_subscription(String, "foot_contacts",
+                              lambda m: contacts.append(json.loads(m.data)), 10)
+    probe.create_subscription(DiagnosticArray, "/diagnostics", lambda m: statuses.extend(
+        s for s in m.status if s.hardware_id == "crawler_planner"), 10)
+
+    def seen(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end and not predicate():
+            time.sleep(0.02)
+        return predicate()
+
+    assert seen(lambda: any(s.level == DiagnosticStatus.WARN for s in statuses))
+    warn = next(s for s in statuses if s.level == DiagnosticStatus.WARN)
+    assert warn.name == "planner: foot contacts" and "no effort" in warn.message
+    assert seen(lambda: bool(contacts))
+    last = contacts[-1]
+    assert last["effort"] is False and "no effort" in last["reason"]
+    assert {f["contact"] for f in last["feet"].values()} == {"unknown"}
+    assert all(f["force"] is None for f in last["feet"].values())
+    status = probe.wait_status(lambda s: s["contacts"]["effort"] is False)
+    assert set(status["contacts"]["feet"]) == {"lf", "lb", "rb", "rf"}
+    force = np.zeros((4, 3))
+    force[:, 2] = 2.0
+    jac = foot_jacobians(CFG.robot, SIT.reshape(4, 3))
+    probe.effort = -np.einsum("lji,lj->li", jac, force).reshape(-1)
+    assert seen(lambda: contacts[-1]["effort"] and {
+        f["contact"] for f in contacts[-1]["feet"].values()} == {"yes"})
+    assert all(f["force"] == pytest.approx(2.0, abs=0.01)
+               for f in contacts[-1]["feet"].values())
+    assert seen(lambda: statuses[-1].level == DiagnosticStatus.OK)
+    probe.wait_status(lambda s: s["contacts"]["feet"]["lf"]["contact"] == "yes")
+
+
+@pytest.mark.parametrize(("namespace", "names", "faulted"), [
+    ("/", ["driver: motor manager"], True),
+    ("/crawler1", ["crawler1/driver: motor manager"], True),
+    ("/crawler1", ["crawler2/driver: motor manager"], False),  # another robot's fault
+    ("/", ["crawler2/driver: motor manager"], False),
+    ("/crawler1", ["crawler2/driver: x", "crawler1/driver: y"], True),
+    ("/crawler1", ["motor_manager/axes"], True),  # cannot be placed: taken as ours
+])
+def test_fault_levels_pause_on_their_own_robots_statuses_only(namespace, names, faulted):
+    from crawler_motion.planner.node import FaultLevels
+
+    statuses = [DiagnosticStatus(level=DiagnosticStatus.ERROR, name=name, message="bad",
+                                 hardware_id="motor_manager") for name in names]
+    assert FaultLevels().update(statuses, "motor_manager", namespace)[0] is faulted

@@ -28,14 +28,20 @@ def settings(values):
 def test_parameter_names_defaults_and_flags():
     assert [spec.name for spec in SPECS] == [
         "config_file", "calibration_file", "rate", "cmd_vel_timeout", "fault_hardware_id",
-        "tick_priority", "gait", "profile", "stride", "lift", "arc", "swing_time", "body_height"]
+        "tick_priority", "contact_threshold", "contact_hysteresis", "contact_drive_inertia",
+        "contact_period", "gait", "profile", "stride", "lift", "arc", "swing_time",
+        "stance_profile", "margin", "body_height"]
     assert {name for name, spec in BY_NAME.items() if spec.read_only} == {
         "config_file", "calibration_file", "tick_priority"}
     assert default_values(SPECS) == {
         "config_file": "robot.yaml", "calibration_file": "", "rate": 100.0, "cmd_vel_timeout": 0.5,
-        "fault_hardware_id": "motor_manager", "tick_priority": 0, "gait": G.gait,
+        "fault_hardware_id": "motor_manager", "tick_priority": 0, "contact_threshold": 0.75,
+        "contact_hysteresis": 0.5, "contact_drive_inertia": 0.005, "contact_period": 0.01,
+        "gait": G.gait,
         "profile": G.profile, "stride": G.stride, "lift": G.lift, "arc": G.arc,
-        "swing_time": G.swing_time, "body_height": CFG.robot.body_height}
+        "swing_time": G.swing_time, "stance_profile": G.stance_profile,
+        "margin": G.stability_margin,
+        "body_height": CFG.robot.body_height}
     assert BY_NAME["stride"].description == "default stride of a new walk [m]"
     assert BY_NAME["body_height"].description == (
         "default standing body height (stand without body_height) [m]")

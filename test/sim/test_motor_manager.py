@@ -15,6 +15,7 @@ from crawler_motion.canbus.bus import open_bus
 from crawler_motion.canbus.protocol import (
     AxisFlags,
     AxisStatus,
+    EffortFeedback,
     Heartbeat,
     MotorProtocol,
     PositionFeedback,
@@ -129,11 +130,14 @@ def test_starts_disabled_at_zero_and_reports_it(rig):
     assert rig.last_state() == "disabled"
     np.testing.assert_array_equal(rig.last_positions(), np.zeros(12))
     assert all(not f.enabled and not f.tracking for f in rig.last_flags().values())
-    # 10 steps at 100 Hz: 10 x (4 position + 2 status) frames, heartbeats at t = 0.01 and 0.1 s
+    # 10 steps at 100 Hz: 10 x (4 effort + 4 position + 2 status) frames, heartbeats at
+    # t = 0.01 and 0.1 s; no plant: the axes carry no load
+    assert len(rig.of(EffortFeedback)) == 40
+    assert all(v == 0.0 for f in rig.of(EffortFeedback) for v in f.efforts.values())
     assert len(rig.of(PositionFeedback)) == 40
     assert len(rig.of(AxisStatus)) == 20
     assert len(rig.of(Heartbeat)) == 2
-    assert rig.sim.counters.sent == 62
+    assert rig.sim.counters.sent == 102
 
 
 def test_initial_pose_is_reported_in_joint_space(proto):

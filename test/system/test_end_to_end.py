@@ -1,5 +1,6 @@
 """End to end, launch-free: planner, driver and simulated manager as separate processes on a
-cross-process virtual CAN bus (python-can ``udp_multicast``), driven from this test."""
+cross-process virtual CAN bus (python-can ``udp_multicast``), driven from this test; the same
+with the planner and the driver composed in one ``controller_node`` process."""
 
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ from crawler_motion.canbus.protocol import MotorProtocol, TargetFrame  # noqa: E
 from crawler_motion.errors import ProtocolError  # noqa: E402
 from crawler_motion.model.config import load_config  # noqa: E402
 from crawler_motion.model.kinematics import forward_kinematics  # noqa: E402
+from crawler_motion.model.rotations import rpy_matrix  # noqa: E402
 from crawler_motion.testing.bus import BusSpec  # noqa: E402
 from crawler_motion.testing.stack import StackProcesses, StackSpec, isolated_env  # noqa: E402
 from crawler_motion.testing.tap import BusTap, TapListener  # noqa: E402
@@ -52,8 +54,8 @@ class Tap(TapListener):
             self.controls.append(frame.command)  # type: ignore[attr-defined]
 
 
-@pytest.fixture()
-def stack(tmp_path: Path) -> Iterator[dict[str, Any]]:
+@pytest.fixture(params=["two-node", "controller"])
+def stack(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[dict[str, Any]]:
     bus = BusSpec.fresh()
     # a ROS domain of its own (above the session's 1..101): no node left by another test of
     # this session can talk to this stack
@@ -61,7 +63,8 @@ def stack(tmp_path: Path) -> Iterator[dict[str, Any]]:
     tap = Tap()
     listener = BusTap(bus.open(), [tap])
     procs = StackProcesses(tmp_path)
-    procs.start(StackSpec(bus, rate=100.0, speed_limit=6.0).commands(), isolated_env(domain))
+    spec = StackSpec(bus, rate=100.0, speed_limit=6.0, controller=request.param == "controller")
+    procs.start(spec.commands(), isolated_env(domain))
     rclpy.init(domain_id=domain)
     console = Console("e2e_console")
     console.printer = lambda _line: None
@@ -139,6 +142,32 @@ def test_walk_end_to_end_on_a_cross_process_bus(stack: dict[str, Any]) -> None:
     assert np.abs(measured - last_cmd).max() < 0.01, (
         f"{np.abs(measured - last_cmd).max()}\n{stack['logs']()}")
     feet = forward_kinematics(CFG.robot, measured.reshape(4, 3))
+    np.testing.assert_allclose(feet, CFG.robot.standing_feet(), atol=1e-3)
+
+
+def test_body_pose_end_to_end_keeps_the_feet_on_the_ground(stack: dict[str, Any]) -> None:
+    """stand, pose (the console waits for it), a walk refused while posed, stand back: the
+    measured joints put the feet where they stood, seen from the posed body."""
+    console: Console = stack["console"]
+    record = stack["record"]
+    assert console.connect(30.0), f"planner did not come up\n{stack['logs']()}"
+    assert console.wait_until(lambda: len(record["states"]) > 5, 30.0), stack["logs"]()
+    ok, message = console.run_when_ready({"command": "stand"}, 30.0)
+    assert ok, f"{message}\n{stack['logs']()}"
+    pose = {"x": 0.015, "z": -0.01, "pitch": 0.1, "yaw": -0.1}
+    ok, message = console.run({"command": "pose", **pose}, 30.0)
+    assert ok and "(pose x 0.015 m, z -0.01 m, pitch 0.1 rad, yaw -0.1 rad)" in message, message
+    console.spin_for(0.5)
+    p = np.array([pose.get(k, 0.0) for k in ("x", "y", "z", "roll", "pitch", "yaw")])
+    measured = record["states"][-1][2].reshape(4, 3)
+    world = forward_kinematics(CFG.robot, measured) @ rpy_matrix(p[3:]).T + p[:3]
+    np.testing.assert_allclose(world, CFG.robot.standing_feet(), atol=1e-3)
+    ok, message = console.run({"command": "walk", "steps": 1}, 10.0)
+    assert not ok and "the body is posed" in message and "send stand first" in message
+    ok, message = console.run({"command": "stand"}, 30.0)
+    assert ok and message == "STANDING", message
+    console.spin_for(0.5)
+    feet = forward_kinematics(CFG.robot, record["states"][-1][2].reshape(4, 3))
     np.testing.assert_allclose(feet, CFG.robot.standing_feet(), atol=1e-3)
 
 

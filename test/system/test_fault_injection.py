@@ -91,7 +91,7 @@ class Stack:
     """Planner and driver subprocesses, the simulated manager in-process, a console node."""
 
     def __init__(self, logs: Path, *, command_timeout: float, sim_timeout: float,
-                 planner: bool = True) -> None:
+                 planner: bool = True, controller: bool = False) -> None:
         tag = uuid.uuid4().hex[:8]
         self.ns = f"/fi_{tag}"
         bus = BusSpec.fresh(channel=random_multicast_group())
@@ -107,7 +107,8 @@ class Stack:
         self.logs = logs
         spec = StackSpec(bus, command_timeout=command_timeout, sim=False, remaps=remaps,
                          driver={"diagnostics_period": DIAG_PERIOD},
-                         planner={} if planner else None, names={n: n for n in EXECUTABLES})
+                         planner={} if planner else None, names={n: n for n in EXECUTABLES},
+                         controller=controller)
         self.spec = spec
         self.processes = StackProcesses(logs)
         self.processes.start(spec.commands(), isolated_env())
@@ -224,10 +225,10 @@ class Stack:
 def make_stack(tmp_path: Path) -> Iterator[Callable[..., Stack]]:
     stacks: list[Stack] = []
 
-    def make(command_timeout: float = 1.0, sim_timeout: float = 0.5, planner: bool = True
-             ) -> Stack:
+    def make(command_timeout: float = 1.0, sim_timeout: float = 0.5, planner: bool = True,
+             controller: bool = False) -> Stack:
         stacks.append(Stack(tmp_path, command_timeout=command_timeout, sim_timeout=sim_timeout,
-                            planner=planner))
+                            planner=planner, controller=controller))
         return stacks[-1]
 
     yield make

@@ -107,7 +107,7 @@ PAIRS = st.one_of(*(st.tuples(st.just(k), v) for k, v in VALUES.items()),
                   st.tuples(st.just("command"), st.sampled_from(KINDS) | JUNK),
                   st.tuples(st.text(max_size=8), JUNK))
 VALID_PAIRS = st.one_of(*(st.tuples(st.just(k), st.floats(lo, hi))
-                          for k, (lo, hi, _) in RANGES.items() if k != "body_height"),
+                          for k, (lo, hi, _) in RANGES.items() if k in COMMAND_KEYS["walk"]),
                         st.tuples(st.just("steps"), st.integers(1, 3)),
                         st.tuples(st.just("gait"), st.sampled_from(sorted(CFG.gait.gaits))))
 JSON_VALUES = st.recursive(
@@ -115,6 +115,9 @@ JSON_VALUES = st.recursive(
     lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner,
                                                                 max_size=3),
     max_leaves=8)
+#: The keys of a pose in range (many poses still leave a foot's workspace: refused).
+POSE_PAIRS = st.one_of(*(st.tuples(st.just(k), st.floats(*RANGES[k][:2]))
+                         for k in COMMAND_KEYS["pose"]))
 NASTY = [
     "", " ", "{", "}", "[]", "null", "NaN", '"walk"', "{}", '{"command": null}',
     '{"command": "walk", "stride": NaN}', '{"command": "walk", "stride": Infinity}',
@@ -138,12 +141,14 @@ def command_texts(draw: st.DrawFn) -> Any:
     branch = draw(st.integers(0, 11))
     if branch <= 5:  # a plausible command: a known kind and in-range walk fields
         kind = draw(st.sampled_from(["walk", "walk", "walk", "stop", "stand", "sit", "estop",
-                                     "reset"]))
+                                     "reset", "pose"]))
         pairs = draw(st.lists(VALID_PAIRS, max_size=4, unique_by=lambda p: p[0]))
         if kind == "stand":
             lo, hi, _ = RANGES["body_height"]
             pairs = draw(st.lists(st.tuples(st.just("body_height"), st.floats(lo, hi)),
                                   max_size=1))
+        elif kind == "pose":
+            pairs = draw(st.lists(POSE_PAIRS, max_size=3, unique_by=lambda p: p[0]))
         elif kind != "walk":
             pairs = []
         return _dump([("command", kind), *pairs])

@@ -91,8 +91,14 @@ def test_1_a_frozen_planner_resumes_from_the_measured_pose(make_stack):
 # ---- 2. a walk restarts by itself ------------------------------------------------------------
 
 
-def test_2_a_driver_estop_ends_the_walk_reset_and_enable_do_not_resume_it(make_stack):
-    stack = make_stack()
+#: The pipelines of the tests that also run the composed controller (`controller_node`).
+PIPELINES = pytest.mark.parametrize("controller", [False, True], ids=["two-node", "controller"])
+
+
+@PIPELINES
+def test_2_a_driver_estop_ends_the_walk_reset_and_enable_do_not_resume_it(make_stack,
+                                                                          controller):
+    stack = make_stack(controller=controller)
     stack.up_and_walking()
     stack.spin(0.5)
     t0 = time.monotonic()
@@ -114,8 +120,9 @@ def test_2_a_driver_estop_ends_the_walk_reset_and_enable_do_not_resume_it(make_s
 # ---- 3. the driver sends any step it is given ------------------------------------------------
 
 
-def test_3_a_1_rad_step_is_refused_and_a_second_publisher_is_an_error(make_stack):
-    stack = make_stack()
+@PIPELINES
+def test_3_a_1_rad_step_is_refused_and_a_second_publisher_is_an_error(make_stack, controller):
+    stack = make_stack(controller=controller)
     stack.up_and_walking()
     stack.spin(0.5)
     last = stack.commands[-1][1].copy()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 
@@ -9,7 +10,14 @@ import numpy as np
 import pytest
 
 from crawler_motion.tools import cli, soak
-from crawler_motion.tools.bench_e2e import parse_rates
+from crawler_motion.tools.bench_e2e import (
+    TARGETS,
+    Pipeline,
+    RateResult,
+    parse_pipelines,
+    parse_rates,
+    shortfalls,
+)
 from crawler_motion.tools.e2e_analysis import (
     counters_text,
     fmt,
@@ -144,3 +152,34 @@ def test_sim_counters_and_snapshot():
     assert parse_sim_counters("nothing") == {}
     snap = Snapshot(bus={"tx": "12", "bad": "x"})
     assert (snap.n("tx"), snap.n("bad"), snap.n("absent")) == (12, 0, 0)
+
+
+@pytest.mark.parametrize(("text", "pipelines"), [
+    ("two-node", (Pipeline.TWO_NODE,)),
+    ("controller,two-node", (Pipeline.CONTROLLER, Pipeline.TWO_NODE)),
+    ("controller, controller", (Pipeline.CONTROLLER,)),
+])
+def test_parse_pipelines(text, pipelines):
+    assert parse_pipelines(text) == pipelines
+
+
+@pytest.mark.parametrize("text", ["", "three-node", "controller,x"])
+def test_parse_pipelines_refuses(text):
+    with pytest.raises(argparse.ArgumentTypeError, match="pipelines must be among"):
+        parse_pipelines(text)
+
+
+def test_shortfalls_name_each_missed_bound_of_the_controller_target():
+    stamps = np.arange(0.0, 2.0, 0.002)  # 500 Hz, exact
+    result = RateResult(500.0, Pipeline.CONTROLLER, timing=period_stats(stamps, 500.0),
+                        lat_p99_ms=0.3, cpu={"controller": 40.0})
+    target = TARGETS[Pipeline.CONTROLLER]
+    assert shortfalls(result, target) == []
+    result.lat_p99_ms, result.cpu, result.skipped = 0.6, {"controller": 55.0}, 2
+    assert shortfalls(result, target) == ["2 deadlines skipped by the ticker",
+                                          "p99 latency 0.60 ms", "CPU 55 %"]
+    jittery = np.sort(stamps + np.random.default_rng(1).uniform(0, 0.0015, stamps.size))
+    result = RateResult(500.0, Pipeline.TWO_NODE, timing=period_stats(jittery, 500.0),
+                        cpu={"planner": 20.0, "driver": 30.0})
+    assert any("p99 period error" in s for s in shortfalls(result, TARGETS[Pipeline.TWO_NODE]))
+    assert shortfalls(RateResult(500.0, error="boom"), target) == ["failed: boom"]

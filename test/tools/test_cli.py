@@ -102,6 +102,69 @@ def test_bad_options_one_line_error(argv: list[str], fragment: str) -> None:
     assert fragment in lines[0]
 
 
+def _rpy_matrix(rpy: np.ndarray) -> np.ndarray:
+    """R = Rz(yaw) Ry(pitch) Rx(roll), the URDF convention."""
+    (cr, cp, cy), (sr, sp, sy) = np.cos(rpy), np.sin(rpy)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def test_urdf_with_a_calibration_file_has_the_calibrated_joint_frames(
+        capsys: pytest.CaptureFixture[str], tmp_path) -> None:
+    import xml.etree.ElementTree as ET
+
+    from crawler_motion.calibration.synthetic import perturbed_robot
+    from crawler_motion.model.calibration_file import write_calibration
+    from crawler_motion.model.leg_geometry import joint_frames
+
+    robot = load_config().robot
+    true = perturbed_robot(robot, 4)
+    assert true.geometry is not None
+    write_calibration(tmp_path / "legs.yaml", true.geometry)
+    code, nominal, _ = run(capsys, "urdf")
+    assert code == 0
+    code, text, err = run(capsys, "urdf", "--calibration", str(tmp_path / "legs.yaml"))
+    assert code == 0 and err == ""
+    origins = {}
+    for urdf in (nominal, text):
+        for joint in ET.fromstring(urdf).iter("joint"):
+            origin = joint.find("origin")
+            assert origin is not None
+            origins.setdefault(joint.get("name"), []).append(
+                [np.array(origin.get(k, "0 0 0").split(), dtype=float) for k in ("xyz", "rpy")])
+    for i, leg in enumerate(robot.legs):
+        frames = joint_frames(true.geometry.params[i], robot.hips[i],
+                              float(robot.neutral_yaw[i]))
+        for j, kind in enumerate(("root", "shoulder", "knee")):
+            (nominal_xyz, _), (xyz, rpy) = origins[f"{leg}_{kind}_joint"]
+            np.testing.assert_allclose(xyz, frames.origins[j], atol=1e-15)
+            np.testing.assert_allclose(_rpy_matrix(rpy), frames.rotations[j], atol=1e-12)
+            if kind == "root":  # the hip error moves the root joint by up to ~0.9 mm
+                assert 1e-5 < np.linalg.norm(xyz - nominal_xyz) < 2e-3
+        np.testing.assert_allclose(origins[f"{leg}_foot_joint"][1][0], frames.foot_tip,
+                                   atol=1e-15)
+
+
+@pytest.mark.parametrize(("content", "fragment"), [
+    (None, "cannot read calibration file"),
+    ("calibration: {legs: {rf: {knee_offset: 0.2}}}", "knee_offset"),   # 11.5 deg: implausible
+    ("calibration: {legs: {xx: {l1: 0.03}}}", "leg 'xx' does not exist"),
+    ("calibration: {legs: {lf: {l1: .nan}}}", "must be a finite number"),
+    ("calibration: [unclosed", "not valid YAML"),
+])
+def test_urdf_refuses_a_bad_calibration_file(capsys: pytest.CaptureFixture[str], tmp_path,
+                                            content: str | None, fragment: str) -> None:
+    path = tmp_path / "legs.yaml"
+    if content is not None:
+        path.write_text(content)
+    out_file = tmp_path / "robot.urdf"
+    code, out, err = run(capsys, "urdf", "--calibration", str(path), "-o", str(out_file))
+    assert code == 1 and out == "" and not out_file.exists()
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0] and lines[0].startswith("crawler-motion: ")
+
+
 def test_urdf_and_plot(capsys: pytest.CaptureFixture[str], tmp_path) -> None:
     code, out, _ = run(capsys, "urdf")
     assert code == 0 and out.lstrip().startswith("<?xml") and "lf_knee_joint" in out

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import subprocess
 import sys
 import time
 import uuid
@@ -110,12 +111,25 @@ def test_stack_spec_commands():
                      driver={"diagnostics_period": 0.25}, planner={"gait": "wave"})
     cmds = spec.commands()
     assert list(cmds) == ["sim", "driver", "planner"]
-    assert cmds["sim"][-2:] == ["--speed-limit", "3.0"]
-    assert cmds["sim"][-8:-2] == bus.cli_args()
+    assert _params(cmds["sim"]) == {"can_interface": "udp_multicast", "can_channel": "239.1.2.3",
+                                    "can_port": "4242", "speed_limit": "3.0"}
     assert _params(cmds["driver"]) == {
         "autostart": "true", "command_timeout": "0.5", "can_interface": "udp_multicast",
         "can_channel": "239.1.2.3", "can_port": "4242", "diagnostics_period": "0.25"}
     assert _params(cmds["planner"]) == {"rate": "200.0", "gait": "wave"}
+
+
+def test_stack_spec_composed_controller_takes_both_parameter_sets():
+    bus = BusSpec("udp_multicast", "239.1.2.3", 4242)
+    cmds = StackSpec(bus, rate=500, driver={"priority": 0}, planner={"gait": "wave"},
+                     remaps=("__ns:=/c1",), controller=True).commands()
+    assert list(cmds) == ["sim", "controller"]
+    command = node_command("controller_node")
+    assert cmds["controller"][:len(command)] == command
+    params = _params(cmds["controller"])
+    assert params["rate"] == "500.0" and params["gait"] == "wave" and params["priority"] == "0"
+    assert params["can_port"] == "4242" and params["autostart"] == "true"
+    assert "__ns:=/c1" in cmds["controller"] and "__ns:=/c1" in cmds["sim"]
 
 
 def test_stack_spec_without_sim_or_planner_and_with_remaps():
@@ -207,3 +221,14 @@ def test_a_listener_error_is_counted_and_the_tap_goes_on():
             time.sleep(0.01)
     sender.shutdown()
     assert boom.counts["other"] == 2 and boom.errors == 1
+
+
+def test_netns_unavailable_says_why(monkeypatch):
+    from crawler_motion.testing import netns
+
+    monkeypatch.setattr(netns.shutil, "which", lambda _name: None)
+    assert "`ip` command" in netns.netns_unavailable()
+    monkeypatch.setattr(netns.shutil, "which", lambda _name: "/usr/sbin/ip")
+    monkeypatch.setattr(netns, "_ip", lambda *args, check=True: subprocess.CompletedProcess(
+        ["ip", *args], 1, "", "mount --make-shared /run/netns failed: Operation not permitted"))
+    assert "Operation not permitted" in netns.netns_unavailable()

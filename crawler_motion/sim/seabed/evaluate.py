@@ -45,8 +45,10 @@ class CycleMetrics:
     turn: float
     yaw_drift: float
     turn_ratio: float  # NaN when the plan does not turn
-    slip_mean: float
+    slip_mean: float  # loaded contact-point slip speed [m/s]
     slip_max: float
+    stance_slip_mean: float  # loaded slip distance per stance [m]
+    stance_slip_max: float
     stance_displacement: float  # mean horizontal foot travel per stance
     stance_contact_loss: float  # share of stance samples
     midswing_contact: float  # share of mid-swing samples
@@ -58,7 +60,8 @@ class CycleMetrics:
 
 
 #: Figures summarised by their maximum over the cycles (the others by their mean).
-_MAXIMA = ("slip_max", "roll_max", "pitch_max", "torque_p99", "height_variation")
+_MAXIMA = ("slip_max", "stance_slip_max", "roll_max", "pitch_max", "torque_p99",
+           "height_variation")
 
 
 @dataclass
@@ -146,10 +149,16 @@ def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray
     slips = slip[part][loaded & stance]
     travel = [float(np.hypot(*(rec.feet[b, leg, :2] - rec.feet[a, leg, :2])))
               for leg, a, b in runs if k0 <= a < k1]
+    dt = np.gradient(rec.time)
+    loaded_all = rec.loads > threshold
+    per_stance = [float(np.sum((slip[a:b + 1, leg] * dt[a:b + 1])[loaded_all[a:b + 1, leg]]))
+                  for leg, a, b in runs if k0 <= a < k1]
     return CycleMetrics(
         **body_motion(rec, path, k0, k1, rpy),
         slip_mean=float(slips.mean()) if slips.size else 0.0,
         slip_max=float(slips.max()) if slips.size else 0.0,
+        stance_slip_mean=float(np.mean(per_stance)) if per_stance else 0.0,
+        stance_slip_max=float(np.max(per_stance)) if per_stance else 0.0,
         stance_displacement=float(np.mean(travel)) if travel else 0.0,
         stance_contact_loss=float((stance & ~loaded).sum() / max(stance.sum(), 1)),
         midswing_contact=float((mid & (rec.loads[part] > 0.0)).sum() / max(mid.sum(), 1)),
@@ -164,7 +173,7 @@ def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray
 TABLE_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
     ("adv", "advance_ratio", 1.0, "{:5.2f}"), ("lat mm", "lateral_drift", 1e3, "{:6.1f}"),
     ("yaw °", "yaw_drift", 180 / math.pi, "{:5.1f}"), ("turn", "turn_ratio", 1.0, "{:5.2f}"),
-    ("slip mm/s", "slip_mean", 1e3, "{:5.1f}"), ("max", "slip_max", 1e3, "{:5.0f}"),
+    ("slip mm", "stance_slip_mean", 1e3, "{:5.1f}"), ("max", "stance_slip_max", 1e3, "{:5.1f}"),
     ("foot mm", "stance_displacement", 1e3, "{:5.1f}"),
     ("loss %", "stance_contact_loss", 100.0, "{:5.1f}"),
     ("scuff %", "midswing_contact", 100.0, "{:5.1f}"),

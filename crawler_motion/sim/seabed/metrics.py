@@ -14,6 +14,8 @@ How each figure is measured (so figures compare between runs):
   parallel to the ground while the foot is in its planned stance and carries more than
   ``LOAD_THRESHOLD`` of its share of the net weight [m/s] (a loaded swing foot is counted as
   mid-swing contact instead);
+- loaded slip per stance: that speed integrated over each planned stance's loaded samples
+  [m] (mean and max over the cycle's stances);
 - stance-foot displacement: horizontal travel of the foot centre over each planned stance [m];
 - stance contact loss: share of planned-stance samples with the foot below the threshold;
 - mid-swing contact: share of samples in the middle half of a swing with any foot load;
@@ -48,7 +50,9 @@ def plan_phases(plan: WalkPlan, time: np.ndarray) -> PlanPhases:
     for s, slot in enumerate(plan.slots):
         member[s, list(slot.group)] = True
     swing_time = np.array([slot.swing_time for slot in plan.slots])[idx]
-    phase = (time - plan.starts[idx]) / swing_time
+    elapsed = time - plan.starts[idx]
+    phase = np.divide(elapsed, swing_time, out=np.full_like(elapsed, np.inf),
+                      where=swing_time > 0)  # a slot without a swing: every foot down
     swinging = member[idx] & (phase < 1.0)[:, None]
     return PlanPhases(stance=~swinging,
                       swing_phase=np.where(swinging, phase[:, None], np.nan))
@@ -56,8 +60,8 @@ def plan_phases(plan: WalkPlan, time: np.ndarray) -> PlanPhases:
 
 def no_slip_path(plan: WalkPlan, time: np.ndarray, stance: np.ndarray) -> np.ndarray:
     """Planned planar body pose ``(n, 3)`` (x [m], y [m], yaw [rad]) from the first sample,
-    keeping the planned stance feet fixed on the ground."""
-    feet = plan.evaluate(time)[0][..., :2]  # (n, n_legs, 2) in base_link
+    keeping the planned stance feet's contact points fixed on the ground."""
+    feet = plan.contact_points(time)[..., :2]  # (n, n_legs, 2) in base_link
     w = (stance[1:] & stance[:-1]).astype(float)  # feet on the ground at both samples
     wsum = np.maximum(w.sum(axis=1, keepdims=True), 1e-12)
     src, dst = feet[1:], feet[:-1]  # body k+1 coordinates -> body k coordinates
@@ -84,7 +88,7 @@ def planned_displacement(plan: WalkPlan, period: float = 0.002) -> np.ndarray:
 
 def steady_cycles(plan: WalkPlan, time: np.ndarray) -> list[tuple[int, int]]:
     """Sample index ranges ``[k0, k1]`` of the steady gait cycles."""
-    n = len({slot.group for slot in plan.slots})
+    n = len({slot.group for slot in plan.slots if slot.group})
     steady = [i for i, slot in enumerate(plan.slots) if slot.kind == "steady"]
     cycles = []
     for first in range(0, len(steady) - n + 1, n):

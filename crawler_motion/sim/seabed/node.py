@@ -1,7 +1,8 @@
 """The ``seabed_sim`` ROS node: the simulated motor manager on CAN, moved by seabed physics.
 
 It speaks the protocol of ``motor_manager_sim`` (the same `MotorManagerSim`, whose axes are
-moved by a `SeabedPlant`) on the bus of ``can_interface`` / ``can_channel`` / ``can_port`` and
+moved by a `SeabedPlant`; its effort frames carry the servo torques averaged over each feedback
+period) on the bus of ``can_interface`` / ``can_channel`` / ``can_port`` and
 publishes the body's truth and sensors: ``odom`` (nav_msgs/Odometry, odom -> base_link, 50 Hz),
 ``imu`` (sensor_msgs/Imu, base_link, 100 Hz), ``scan`` (sensor_msgs/PointCloud2, scanner_link,
 x y z float32, at the scanner's rate) and ``/diagnostics`` (ERROR with the reason once the

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
@@ -82,7 +83,10 @@ class SeabedPlant:
 
     The robot starts at the configured standing pose, settled on the seabed. `advance` takes
     axis targets [rad] (axis order of ``protocol``), steps the physics by ``dt`` (whole time
-    steps; the remainder is carried over) and returns the measured axis positions. On an
+    steps; the remainder is carried over) and returns the measured axis positions;
+    `take_efforts` gives the servo torques averaged over the steps since its last call (what a
+    drive reports: a mean over the feedback period, not one instant of the servo's ripple).
+    ``on_step(data)``, when set, sees the state after every physics step. On an
     unstable state the physics stops, `failure` says why and the last sane positions stay.
     With a ``snapshot_period`` it keeps ``qpos`` every period of simulated time in `snapshots`
     (cheap: pictures are rendered from them after the run).
@@ -99,6 +103,9 @@ class SeabedPlant:
         self._lock = threading.Lock()
         self._rng = np.random.default_rng(self.settings.seed)
         self._carry = 0.0  # [s] not yet stepped
+        self._torque_sum = np.zeros(sm.model.nu)  # [N m s / timestep] since take_efforts
+        self._torque_steps = 0
+        self.on_step: Callable[[mujoco.MjData], None] | None = None
         self._next_scan = 0.0  # [s] simulated time
         self._scan: tuple[float, np.ndarray] | None = None
         self.snapshots: list[np.ndarray] = []  # qpos, one per snapshot period
@@ -123,8 +130,7 @@ class SeabedPlant:
         if n <= 0:
             return self._pos.copy()
         self.data.ctrl[:] = self.protocol.to_joint(targets)
-        mujoco.mj_step(self.sm.model, self.data, nstep=n)
-        self.steps += n
+        self._step(n)
         reason = unstable_reason(self.sm, self.data, self.settings.max_penetration)
         if reason is not None:
             self.failure = reason
@@ -138,6 +144,28 @@ class SeabedPlant:
             if scan is not None:
                 self._scan = scan
         return self._pos.copy()
+
+    def _step(self, n: int) -> None:
+        """``n`` physics steps, summing the servo torques (joint order [N m])."""
+        model, data, hook = self.sm.model, self.data, self.on_step
+        for _ in range(n):
+            mujoco.mj_step(model, data)
+            self._torque_sum += data.actuator_force
+            if hook is not None:
+                hook(data)
+        self._torque_steps += n
+        self.steps += n
+
+    def take_efforts(self) -> np.ndarray:
+        """Servo torques averaged over the physics steps since the last call, axis order
+        [N m] (the last instant's when no step was taken since)."""
+        if self._torque_steps:
+            tau = self._torque_sum / self._torque_steps
+        else:
+            tau = np.array(self.data.actuator_force, dtype=float)
+        self._torque_sum[:] = 0.0
+        self._torque_steps = 0
+        return self.protocol.effort_to_axis(tau)
 
     def sample(self) -> BodySample:
         """The latest body state."""

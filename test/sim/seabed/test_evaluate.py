@@ -49,7 +49,8 @@ def test_result_is_plain_json(diagonal_walk):
 
 @pytest.mark.parametrize(("params", "advance", "turn"), [
     ({"gait": "diagonal"}, 0.12, 0.0),
-    ({"gait": "wave"}, 0.08, 0.0),  # stance 3 x 0.6 s: 0.06 m per 1.8 s stance, 2.4 s cycle
+    # stance 3 x 0.6 s + 4 x 0.3 s of transfer: 0.06 m per 3.0 s stance, 3.6 s cycle
+    ({"gait": "wave"}, 0.072, 0.0),
     ({"gait": "diagonal", "heading": math.pi / 2}, 0.12, 0.0),
     ({"gait": "diagonal", "stride": 0.0, "turn": 0.2}, 0.0, 0.2),
 ])
@@ -64,10 +65,11 @@ def test_no_slip_path_of_the_plan(cfg, params, advance, turn):
 
 
 @pytest.mark.parametrize(("params", "steps", "expected"), [
-    # diagonal: start half step 0.06 m + 0.12 m per cycle; wave: 0.06 + 0.08 m per cycle
+    # diagonal: start half step 0.06 m + 0.12 m per cycle; wave: 0.072 m per cycle, start
+    # 3 x 1/6 stride and stop 0.5 - e = 0.4 stride (its last transfer's share e = 0.1)
     ({"gait": "diagonal"}, 1, (0.18, 0.0, 0.0)),
     ({"gait": "diagonal"}, 3, (0.42, 0.0, 0.0)),
-    ({"gait": "wave"}, 1, (0.14, 0.0, 0.0)),
+    ({"gait": "wave"}, 1, (0.126, 0.0, 0.0)),
     ({"gait": "diagonal", "heading": math.pi / 2}, 1, (0.0, 0.18, 0.0)),
 ])
 def test_planned_displacement_of_a_whole_walk(cfg, params, steps, expected):

@@ -4,6 +4,7 @@ world file is refused before anything starts."""
 
 from __future__ import annotations
 
+import json
 import random
 import subprocess
 import time
@@ -17,6 +18,7 @@ rclpy = pytest.importorskip("rclpy")
 
 from nav_msgs.msg import Odometry  # noqa: E402
 from sensor_msgs.msg import Imu, PointCloud2  # noqa: E402
+from std_msgs.msg import String  # noqa: E402
 
 from crawler_motion.model.config import load_config, load_scanner  # noqa: E402
 from crawler_motion.model.rotations import rpy_matrix  # noqa: E402
@@ -63,7 +65,10 @@ class Recorder:
         self.odom: list[Odometry] = []
         self.imu: list[Imu] = []
         self.scan: list[PointCloud2] = []
+        self.contacts: list[dict[str, Any]] = []  # the planner's foot_contacts
         node = self.console.node
+        node.create_subscription(String, "foot_contacts",
+                                 lambda m: self.contacts.append(json.loads(m.data)), 100)
         node.create_subscription(Odometry, "odom", self.odom.append, 100)
         node.create_subscription(Imu, "imu", self.imu.append, 100)
         node.create_subscription(PointCloud2, "scan", self.scan.append, 10)
@@ -85,6 +90,11 @@ def test_the_stack_walks_the_physical_robot_forward(tmp_path: Path, ros_domain: 
         assert console.wait_until(lambda: len(rec.odom) > 10, 30.0), procs.log_tails(30)
         ok, message = console.run_when_ready({"command": "stand"}, 30.0)
         assert ok, f"{message}\n{procs.log_tails(30)}"
+        # the efforts reach the planner: every standing foot is in contact
+        assert console.wait_until(lambda: rec.contacts and rec.contacts[-1]["effort"] and {
+            f["contact"] for f in rec.contacts[-1]["feet"].values()} == {"yes"}, 5.0), (
+            rec.contacts[-1:])
+        walking_from = len(rec.contacts)
         start = rec.odom[-1].pose.pose.position.x
         pid = procs.pids()["seabed"]
         cpu0, wall0 = cpu_seconds(pid), time.monotonic()
@@ -93,6 +103,9 @@ def test_the_stack_walks_the_physical_robot_forward(tmp_path: Path, ros_domain: 
         cpu = (cpu_seconds(pid) or 0.0) - (cpu0 or 0.0)
         cpu_share = cpu / (time.monotonic() - wall0)
         console.spin_for(0.5)
+        lifted = {leg for c in rec.contacts[walking_from:] for leg, f in c["feet"].items()
+                  if f["contact"] == "no"}
+        assert lifted == {"lf", "lb", "rb", "rf"}  # each swinging foot seen off the ground
         advance = rec.odom[-1].pose.pose.position.x - start
         plan = planned_advance(STEPS)
         assert 0.5 * plan < advance < 1.5 * plan, (

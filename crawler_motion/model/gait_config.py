@@ -1,0 +1,146 @@
+"""The ``gait`` section of the robot configuration: defaults, ranges, phase tables, profiles.
+
+Loaded and validated once with the rest of ``robot.yaml`` (`crawler_motion.model.config`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from crawler_motion.errors import ConfigError
+from crawler_motion.model.yaml_values import number as _number
+from crawler_motion.model.yaml_values import positive as _positive
+from crawler_motion.model.yaml_values import section as _section
+
+#: The lift, arc and lower fractions of a profile must sum to 1 within this (rounding only).
+FRACTION_SUM_TOL = 1e-9
+#: The stance profiles (`crawler_motion.motion.slot.StanceProfile`).
+STANCE_PROFILES: tuple[str, ...] = ("rest", "continuous")
+
+
+@dataclass(frozen=True)
+class ProfileConfig:
+    """Time split of the swing and junction velocity ratios of one profile.
+
+    The fractions are parts of the swing time (robot.yaml keys ``lift``, ``arc``, ``lower`` of
+    ``gait.profiles.<name>``); not to be confused with the heights ``lift`` and ``arc`` [m] of
+    `GaitConfig` and `WalkParams`. ``v_b`` / ``v_d`` are the junction speeds at B / D in units
+    of the mean vertical speed of the lift / lower segment.
+    """
+
+    lift_fraction: float
+    arc_fraction: float
+    lower_fraction: float
+    v_b: float
+    v_d: float
+
+
+@dataclass(frozen=True)
+class GaitConfig:
+    """Gait defaults, ranges, phase tables and profiles."""
+
+    gait: str
+    profile: str
+    stride: float
+    lift: float
+    arc: float
+    swing_time: float
+    #: Stance time [s] of the single-leg step cycle (the default of ``crawler-motion
+    #: trajectory``, the comparison plots); walks (planner, ``crawler-motion walk``) default
+    #: to ``(groups - 1) x swing_time`` of their gait instead (`gait.validate_params`).
+    stance_time: float
+    max_stride: float
+    max_turn: float
+    max_clearance: float
+    swing_time_range: tuple[float, float]
+    gaits: dict[str, tuple[tuple[str, ...], ...]] = field(default_factory=dict)
+    profiles: dict[str, ProfileConfig] = field(default_factory=dict)
+    #: All-feet-down time [s] of each slot of a crawl gait (one leg per group), in which the
+    #: body sways over the next support triangle (`crawler_motion.motion.sway`).
+    transfer_time: float = 0.3
+    #: Default static stability margin of crawl gaits [m]: the body centre's distance inside
+    #: the support polygon at every instant.
+    stability_margin: float = 0.015
+    #: Default stance profile of walks: "rest" or "continuous" (`crawler_motion.motion.slot`).
+    stance_profile: str = "rest"
+
+
+def _parse_gaits(data: Mapping[str, Any], legs: tuple[str, ...], where: str
+                 ) -> dict[str, tuple[tuple[str, ...], ...]]:
+    gaits: dict[str, tuple[tuple[str, ...], ...]] = {}
+    for name, table in _section(data, "gaits", where).items():
+        groups = table.get("groups") if isinstance(table, Mapping) else None
+        if (not isinstance(groups, list) or len(groups) < 2
+                or not all(isinstance(group, list) and group
+                           and all(isinstance(leg, str) for leg in group) for group in groups)):
+            raise ConfigError(f"{where}.gaits.{name}.groups must list >= 2 groups (lists) of "
+                              f"leg names, got {groups!r}")
+        flat = [leg for group in groups for leg in group]
+        if sorted(flat) != sorted(legs):
+            raise ConfigError(f"{where}.gaits.{name}: every leg {list(legs)} must swing exactly "
+                              f"once per step, got {groups}")
+        gaits[str(name)] = tuple(tuple(group) for group in groups)
+    return gaits
+
+
+def _parse_profiles(data: Mapping[str, Any], where: str) -> dict[str, ProfileConfig]:
+    profiles: dict[str, ProfileConfig] = {}
+    for name, prof in _section(data, "profiles", where).items():
+        if not isinstance(prof, Mapping):
+            raise ConfigError(f"{where}.profiles.{name} must be a mapping")
+        values = {k: _number(prof.get(k), f"{where}.profiles.{name}.{k}")
+                  for k in ("lift", "arc", "lower", "v_b", "v_d")}
+        fractions = (values["lift"], values["arc"], values["lower"])
+        if min(fractions) <= 0 or abs(sum(fractions) - 1.0) > FRACTION_SUM_TOL:
+            raise ConfigError(f"{where}.profiles.{name}: lift + arc + lower must be positive "
+                              f"fractions summing to 1, got {fractions}")
+        if values["v_b"] < 0 or values["v_d"] < 0:
+            raise ConfigError(f"{where}.profiles.{name}: v_b and v_d must be >= 0")
+        profiles[str(name)] = ProfileConfig(
+            lift_fraction=values["lift"], arc_fraction=values["arc"],
+            lower_fraction=values["lower"], v_b=values["v_b"], v_d=values["v_d"])
+    for needed in ("rest", "smooth"):
+        if needed not in profiles:
+            raise ConfigError(f"{where}.profiles must define '{needed}'")
+    return profiles
+
+
+def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gait") -> GaitConfig:
+    """Validate the ``gait`` section of the YAML and build a `GaitConfig`."""
+    gaits = _parse_gaits(data, legs, where)
+    profiles = _parse_profiles(data, where)
+    rng = data.get("swing_time_range", [0.1, 5.0])
+    if not isinstance(rng, list) or len(rng) != 2:
+        raise ConfigError(f"{where}.swing_time_range must be [min, max] in s, got {rng!r}")
+    cfg = GaitConfig(
+        gait=str(data.get("gait", "diagonal")), profile=str(data.get("profile", "smooth")),
+        stride=_number(data.get("stride"), f"{where}.stride"),
+        lift=_positive(data.get("lift"), f"{where}.lift"),
+        arc=_positive(data.get("arc"), f"{where}.arc"),
+        swing_time=_positive(data.get("swing_time"), f"{where}.swing_time"),
+        stance_time=_positive(data.get("stance_time"), f"{where}.stance_time"),
+        max_stride=_positive(data.get("max_stride"), f"{where}.max_stride"),
+        max_turn=_positive(data.get("max_turn"), f"{where}.max_turn"),
+        max_clearance=_positive(data.get("max_clearance"), f"{where}.max_clearance"),
+        swing_time_range=(_positive(rng[0], f"{where}.swing_time_range"),
+                          _positive(rng[1], f"{where}.swing_time_range")),
+        gaits=gaits, profiles=profiles,
+        transfer_time=_positive(data.get("transfer_time", 0.3), f"{where}.transfer_time"),
+        stability_margin=_number(data.get("stability_margin", 0.015),
+                                 f"{where}.stability_margin"),
+        stance_profile=str(data.get("stance_profile", "rest")))
+    if cfg.stance_profile not in STANCE_PROFILES:
+        raise ConfigError(f"{where}.stance_profile must be one of {list(STANCE_PROFILES)}, got "
+                          f"{cfg.stance_profile!r}")
+    if cfg.stability_margin < 0:
+        raise ConfigError(f"{where}.stability_margin must be >= 0 m, got {cfg.stability_margin}")
+    if cfg.swing_time_range[0] > cfg.swing_time_range[1]:
+        raise ConfigError(f"{where}.swing_time_range must be [min, max] with min <= max, "
+                          f"got {list(cfg.swing_time_range)}")
+    if cfg.gait not in gaits:
+        raise ConfigError(f"{where}.gait '{cfg.gait}' is not one of {sorted(gaits)}")
+    if cfg.profile not in profiles:
+        raise ConfigError(f"{where}.profile '{cfg.profile}' is not one of {sorted(profiles)}")
+    return cfg

@@ -1,0 +1,209 @@
+"""One slot of a walk: its foot trajectories from the gait's offsets (pure numpy).
+
+`SlotBuilder` turns the sequencer's decision for a slot (the swinging group, where it lands,
+how far the body moves) into trajectories, carrying from one slot to the next what makes them
+join: the foot centres, the touch-down points (the foot's roll, `contact`), the body's sway
+(`sway`) and, for the continuous stance, the feet's velocities.
+
+Time profiles of the body within a slot (`StanceProfile`):
+
+- ``rest``: the study's: every stance segment is a rest sextic, so the body starts and stops
+  in every swing and every transfer (v = a = 0 at each lift-off and touch-down);
+- ``continuous``: the body keeps moving: stance feet glide at constant velocity in steady
+  slots, ramp up over the start half steps and down over the stop ones (quintics with a = 0 at
+  the slot ends: C²), and every swing leaves and lands with the stance feet's velocity
+  (`continuous.continuous_swing_segments`), i.e. at zero velocity relative to the ground.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from crawler_motion.errors import GaitError
+from crawler_motion.model.config import Config
+from crawler_motion.motion.contact import rolled_centres
+from crawler_motion.motion.continuous import continuous_swing_segments
+from crawler_motion.motion.sway import support_margin, sway_target
+from crawler_motion.motion.trajectory import (
+    Piecewise,
+    Segment,
+    SwingShape,
+    glide_segment,
+    minus_path,
+    rest_segment,
+    swing_segments,
+)
+from crawler_motion.motion.walk_options import is_crawl
+from crawler_motion.motion.walk_params import WalkParams
+
+#: Rounding allowance of the stability margin check [m].
+MARGIN_TOLERANCE = 1e-9
+
+
+class StanceProfile(str, Enum):
+    """How the body moves within a slot (see the module docstring)."""
+
+    REST = "rest"
+    CONTINUOUS = "continuous"
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One slot of a walk: ``group`` swings, everybody else (and the group after touch-down,
+    during the dwell) pushes the body. ``legs`` holds one trajectory per leg, in slot time."""
+
+    kind: str  # "start", "steady", "stop"
+    group: tuple[int, ...]
+    offsets_start: np.ndarray  # (n_legs, 2) [m]
+    offsets_end: np.ndarray  # (n_legs, 2) [m]
+    legs: tuple[Piecewise, ...]
+    duration: float
+    swing_time: float
+    params: WalkParams
+    #: The contact points' trajectories (the planned ground points; ``legs`` adds the roll).
+    contacts: tuple[Piecewise, ...] = ()
+    #: The body's sway (x, y, 0) [m] (`crawler_motion.motion.sway`; zero unless the walk
+    #: sways): every foot target is its planned point minus the sway.
+    sway: Piecewise | None = None
+
+
+@dataclass(frozen=True)
+class SlotPlan:
+    """What the sequencer decided for one slot: the swinging ``group`` (empty: every foot
+    down), the group after it, the feet's offsets ``(n_legs, 2)`` [m] at the slot's start, at
+    the swing's end and at its end, its duration and swing time [s], the body's rate (share of
+    the steady speed) at its end (continuous stance) and whether it ends the walk."""
+
+    kind: str
+    group: tuple[int, ...]
+    following: tuple[int, ...]
+    offsets: tuple[np.ndarray, np.ndarray, np.ndarray]
+    duration: float
+    swing_time: float
+    rate_end: float
+    final: bool
+    sways: bool
+
+
+class SlotBuilder:
+    """Builds slots one after the other, joining each to the last (see the module docstring)."""
+
+    def __init__(self, cfg: Config) -> None:
+        self.cfg = cfg
+        self.robot = cfg.robot
+        self.reset(self.robot.standing_feet(None))
+
+    def reset(self, standing: np.ndarray) -> None:
+        """Start a walk from the standing feet ``standing`` ``(n_legs, 3)`` [m]."""
+        self._touch = standing  # foot centres at their last touch-down [m]
+        self._centres = standing  # foot centre targets at the end of the last slot [m]
+        self._sway = np.zeros(2)  # body sway at the end of the last slot [m]
+        self._velocity = np.zeros((self.robot.n_legs, 3))  # centres' velocities then [m/s]
+
+    def build(self, plan: SlotPlan, p: WalkParams, stride: np.ndarray, speed: float) -> Slot:
+        """The slot of ``plan`` with parameters ``p``, per-leg stride vectors ``stride``
+        ``(n_legs, 2)`` [m] and ``speed``: the stance feet's steady travel per second as a
+        share of their stride [1/s] (continuous stance)."""
+        robot = self.robot
+        center = robot.standing_feet(p.body_height)
+        swinging = np.isin(np.arange(robot.n_legs), plan.group)
+        ground = [center.copy() for _ in range(3)]  # slot start, swing end, slot end
+        for g, off in zip(ground, plan.offsets, strict=True):
+            g[:, :2] += off
+        sway = self._sway_targets(plan, p, swinging, ground)
+        for g, s in zip(ground, sway, strict=True):
+            g[:, :2] -= s
+        touch = np.where(swinging[:, None], ground[1], self._touch)
+        centres = [self._centres] + [g.copy() if plan.final else rolled_centres(robot, g, touch)
+                                     for g in ground[1:]]
+        velocity_end = np.zeros_like(self._velocity)
+        if p.stance_profile == StanceProfile.CONTINUOUS.value:
+            velocity_end[:, :2] = -stride * speed * plan.rate_end
+        sway3 = [np.append(s, 0.0) for s in sway]
+        dwell = plan.duration - plan.swing_time
+        sway_path = ([rest_segment(sway3[0], sway3[1], plan.swing_time, "sway")]
+                     if plan.swing_time > 0 else [])
+        sway_path += [rest_segment(sway3[1], sway3[2], dwell, "sway")] if dwell > 1e-12 else []
+        legs, contacts = [], []
+        for i in range(robot.n_legs):
+            for points, out in ((centres, legs), (ground, contacts)):
+                out.append(Piecewise(self._leg(i, points, swinging[i], plan, p, sway3,
+                                               sway_path, velocity_end[i])))
+        slot = Slot(kind=plan.kind, group=plan.group, offsets_start=plan.offsets[0],
+                    offsets_end=plan.offsets[2], legs=tuple(legs), duration=plan.duration,
+                    swing_time=plan.swing_time, params=p, contacts=tuple(contacts),
+                    sway=Piecewise(sway_path))
+        if is_crawl(self.cfg, p.gait):
+            check_margin(slot, float(p.margin), self.cfg)  # type: ignore[arg-type]
+        last = 2 if dwell > 1e-12 else 1
+        self._touch, self._centres, self._sway = touch, centres[last], sway[last]
+        self._velocity = velocity_end
+        return slot
+
+    def _leg(self, i: int, points: list[np.ndarray], swinging: bool, plan: SlotPlan,
+             p: WalkParams, sway: list[np.ndarray], sway_path: list[Segment],
+             velocity_end: np.ndarray) -> list[Segment]:
+        """Segments of leg ``i`` through ``points`` (slot start, swing end, slot end)."""
+        a, mid, fin = (pt[i] for pt in points)
+        v0, t_w, dwell = self._velocity[i], plan.swing_time, plan.duration - plan.swing_time
+        segments: list[Segment] = []
+        shape = SwingShape(p.lift, p.arc, t_w, self.cfg.gait.profiles[p.profile]) if (
+            swinging) else None
+        if shape is not None and p.stance_profile == StanceProfile.CONTINUOUS.value:
+            segments = continuous_swing_segments(a, mid, shape, v0, velocity_end)
+        elif shape is not None:  # the swing in the world, seen from the swaying body
+            segments = minus_path(swing_segments(a + sway[0], mid + sway[1], shape),
+                                  sway_path[0])
+        elif t_w > 0.0:
+            v_mid = velocity_end if dwell <= 1e-12 else np.zeros(3)
+            segments = [glide_segment(a, mid, t_w, v0, v_mid, "stance")]
+        if dwell > 1e-12:
+            segments.append(rest_segment(mid, fin, dwell, "stance"))
+        return segments
+
+    def _sway_targets(self, plan: SlotPlan, p: WalkParams, swinging: np.ndarray,
+                      ground: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sway [m] at the slot's start, the swing's end and the slot's end (`motion.sway`)."""
+        if not plan.sways:
+            return np.zeros(2), np.zeros(2), np.zeros(2)
+        margin = float(p.margin) if is_crawl(self.cfg, p.gait) else 0.0  # type: ignore[arg-type]
+        s_mid = (self._sway if not swinging.any() else
+                 sway_target([ground[1][~swinging, :2]], margin))
+        following = np.isin(np.arange(self.robot.n_legs), plan.following)
+        s_fin = np.zeros(2) if plan.final else sway_target([ground[2][~following, :2]], margin)
+        for value in (s_mid, s_fin):
+            if value is None:
+                raise GaitError(f"the {p.gait} walk cannot keep the body centre {margin:g} m "
+                                f"inside its support triangles: use a smaller margin or "
+                                f"stride, or a wider stance")
+        return self._sway, s_mid, s_fin  # type: ignore[return-value]
+
+
+def check_margin(slot: Slot, margin: float, cfg: Config, samples: int = 41) -> None:
+    """Check that the body centre (base_link origin) stays ``margin`` [m] inside the support
+    polygon of the stance feet's contact points at every sample of ``slot`` (the swinging
+    group counts as lifted over its whole swing, lift-off and touch-down included).
+
+    Raises `GaitError` naming the swinging leg, the time in the slot and the margin found.
+    """
+    robot = cfg.robot
+    parts = [(np.linspace(0.0, slot.swing_time, samples), slot.group)] if slot.swing_time else []
+    if slot.duration - slot.swing_time > 1e-12:
+        parts.append((np.linspace(slot.swing_time, slot.duration, samples), ()))
+    for times, lifted in parts:
+        stance = [i for i in range(robot.n_legs) if i not in lifted]
+        points = np.stack([slot.contacts[i].evaluate(times)[0][:, :2] for i in stance], axis=1)
+        found = np.array([support_margin(pt) for pt in points])
+        k = int(np.argmin(found))
+        if found[k] < margin - MARGIN_TOLERANCE:
+            what = ", ".join(robot.legs[i].upper() for i in lifted) or "no leg"
+            raise GaitError(f"the walk cannot keep its stability margin {margin * 1e3:.1f} mm: "
+                            f"with {what} lifted the body centre is {found[k] * 1e3:.1f} mm "
+                            f"inside the support at t = {times[k]:.3f} s of a {slot.kind} "
+                            f"slot; use a shorter stride or turn, a longer transfer "
+                            f"(stance_time) or a smaller margin")
+
+

@@ -1,0 +1,75 @@
+"""``crawler-motion pose`` and the console's ``pose``: flags from the one option table."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import numpy as np
+import pytest
+
+from crawler_motion.model.config import load_config
+from crawler_motion.model.kinematics import forward_kinematics
+from crawler_motion.model.rotations import rpy_matrix
+from crawler_motion.motion.body_pose import POSE_FIELDS
+from crawler_motion.tools import cli
+from crawler_motion.tools.console import build_parser, command_from_args, describe
+
+CFG = load_config()
+ROBOT = CFG.robot
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_the_pose_move_as_csv_keeps_the_feet_fixed(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(capsys, "pose", "--x", "0.02", "--yaw", "-0.1", "--rate", "50")
+    assert code == 0 and err == ""
+    data = list(csv.DictReader(io.StringIO(out)))
+    assert list(data[0])[:7] == ["t", *POSE_FIELDS]
+    assert float(data[-1]["t"]) == pytest.approx(1.875 * 0.02 / 0.03)  # the speed limit
+    assert (float(data[-1]["x"]), float(data[-1]["yaw"])) == pytest.approx((0.02, -0.1))
+    for row in data:
+        q = np.array([float(row[name]) for name in ROBOT.joint_names]).reshape(4, 3)
+        pose = np.array([float(row[name]) for name in POSE_FIELDS])
+        world = forward_kinematics(ROBOT, q) @ rpy_matrix(pose[3:]).T + pose[:3]
+        np.testing.assert_allclose(world, ROBOT.standing_feet(), atol=1e-8)  # CSV rounding
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (("--roll", "0.3"), "roll = 0.3 rad is outside [-0.2, 0.2] rad"),
+    (("--y", "0.03", "--z", "0.02"), "a foot would leave its workspace: leg rb:"),
+    (("--body-height", "0.1"), "body height 0.1 m is outside the allowed [0.05, 0.09] m"),
+])
+def test_a_pose_out_of_reach_is_one_line_and_exit_1(capsys, argv, message) -> None:
+    code, out, err = run(capsys, "pose", *argv)
+    assert code == 1 and out == ""
+    assert err.startswith("crawler-motion pose: error: ") and message in err
+    assert err.count("\n") == 1
+
+
+def test_a_bad_flag_value_is_argparse_s_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["pose", "--pitch", "nan"])
+    assert exc.value.code == 2 and "pitch" in capsys.readouterr().err
+
+
+def test_the_console_sends_the_pose_keys_it_was_given() -> None:
+    args = build_parser().parse_args(["pose", "--x", "0.01", "--roll", "-0.05"])
+    assert command_from_args(args) == {"command": "pose", "x": 0.01, "roll": -0.05}
+    args = build_parser().parse_args(["pose"])
+    assert command_from_args(args) == {"command": "pose"}  # neutral
+
+
+@pytest.mark.parametrize(("status", "line"), [
+    ({"state": "STANDING", "body_pose": {"x": 0.01, "y": 0.0, "roll": -0.05}},
+     "STANDING (pose x 0.01 m, roll -0.05 rad)"),
+    ({"state": "STANDING", "body_pose": {"x": 0.0, "yaw": 0.0}}, "STANDING"),
+    ({"state": "SITTING", "body_pose": {"x": 0.01}}, "SITTING"),
+    ({"state": "MOVING", "body_pose": {"z": "junk", "pitch": 0.1}}, "MOVING (pose pitch 0.1 rad)"),
+])
+def test_the_console_shows_the_body_pose(status, line) -> None:
+    assert describe(status) == line
