@@ -84,7 +84,8 @@ class PlannerCore:
         self.moves = MoveController(cfg, self.ctx, measurement_max_age)
         self.resumer = Resumer(cfg, self.ctx, self.walk, self.moves)
         self.driver = DriverView()
-        self.contacts = ContactMonitor(self.robot)  # fed by the node with the joint states
+        # fed by the node with the joint states; read by the walk's touch-down
+        self.contacts = self.walk.foothold.monitor = ContactMonitor(self.robot)
         self._stand_height = self.robot.body_height
         self._now = -math.inf
         self._last_tick = -math.inf

@@ -163,6 +163,7 @@ class PlannerNode(Node):
         self.core = PlannerCore(self.cfg, settings.rate, defaults=settings.defaults,
                                 cmd_vel_timeout=settings.cmd_vel_timeout)
         self.core.contacts.configure(settings.contacts)
+        self.core.walk.foothold.configure(settings.foothold)
         self._settings = settings
         self._faults = FaultLevels()
         self._repeats = RepeatFilter(LOG_REPEAT_PERIOD)
@@ -262,6 +263,7 @@ class PlannerNode(Node):
             self.core.set_defaults(settings.defaults)
             self.core.set_cmd_vel_timeout(settings.cmd_vel_timeout)
             self.core.contacts.configure(settings.contacts)
+            self.core.walk.foothold.configure(settings.foothold)
             self.core.set_rate(settings.rate)
             if settings.rate != self._settings.rate:
                 self._ticker.period = 1.0 / settings.rate

@@ -14,6 +14,7 @@ from typing import Any
 from crawler_motion.errors import CommandError, ConfigError, GaitError
 from crawler_motion.model.config import Config
 from crawler_motion.motion.contact_estimation import ContactSettings
+from crawler_motion.motion.foothold import FootholdSettings
 from crawler_motion.motion.gait import WalkParams, validate_params
 from crawler_motion.motion.walk_options import WALK_OPTIONS, OptionType, WalkOption
 from crawler_motion.runtime.parameters import ParamSpec, validate_parameters
@@ -41,6 +42,7 @@ class PlannerSettings:
     tick_priority: int  # 0 or a SCHED_FIFO priority
     defaults: WalkParams  # gait defaults; body_height resolved
     contacts: ContactSettings = field(default_factory=ContactSettings)  # foot contacts
+    foothold: FootholdSettings = field(default_factory=FootholdSettings)  # touch-down
 
 
 def _config_file_check(value: str) -> str | None:
@@ -81,6 +83,24 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("contact_period", ContactSettings.period, "feedback period of the motor manager "
               "(the DBC's position cycle time) [s]: joint-state times are whole multiples of "
               "it", minimum=0.001, maximum=0.1, unit="s"),
+    ParamSpec("foothold_adapt", FootholdSettings.enabled, "terrain-adaptive touch-down: stop "
+              "a lowering foot at early contact, search below the planned ground without one "
+              "(docs/contact.md); needs efforts that carry the ground load (seabed_sim, the "
+              "robot), not motor_manager_sim's; false: the blind plan"),
+    ParamSpec("foothold_tolerance", FootholdSettings.tolerance, "a contact counts as early "
+              "while the foot is more than this above its planned ground [m]", minimum=0.0,
+              maximum=0.05, unit="m"),
+    ParamSpec("foothold_stop_time", FootholdSettings.stop_time, "duration of the smooth stop "
+              "of a foot at early contact [s]", minimum=0.005, maximum=1.0, unit="s"),
+    ParamSpec("foothold_search_depth", FootholdSettings.search_depth, "how far below its "
+              "planned ground a foot without contact searches before the walk holds [m]",
+              minimum=0.0, maximum=0.1, unit="m"),
+    ParamSpec("foothold_search_speed", FootholdSettings.search_speed, "peak speed of the "
+              "search below the planned ground [m/s]", minimum=0.001, maximum=1.0,
+              unit="m/s"),
+    ParamSpec("foothold_touch_force", FootholdSettings.touch_force, "normal force an early "
+              "contact needs in 2 estimates in a row [N] (a swinging leg's own dynamics reach "
+              "contact_threshold)", minimum=0.0, maximum=100.0, unit="N"),
 )
 
 
@@ -131,10 +151,16 @@ def planner_settings(specs: Sequence[ParamSpec], values: Mapping[str, Any], cfg:
                                    float(values["contact_hysteresis"]),
                                    float(values["contact_drive_inertia"]),
                                    float(values["contact_period"]))
+        foothold = FootholdSettings(bool(values["foothold_adapt"]),
+                                    float(values["foothold_tolerance"]),
+                                    float(values["foothold_stop_time"]),
+                                    float(values["foothold_search_depth"]),
+                                    float(values["foothold_search_speed"]),
+                                    float(values["foothold_touch_force"]))
     except ConfigError as exc:
         raise CommandError(str(exc)) from exc
     return PlannerSettings(config_file=values[CONFIG_FILE], rate=float(values["rate"]),
                            cmd_vel_timeout=float(values["cmd_vel_timeout"]),
                            fault_hardware_id=values["fault_hardware_id"],
                            tick_priority=values["tick_priority"], defaults=params,
-                           contacts=contacts)
+                           contacts=contacts, foothold=foothold)

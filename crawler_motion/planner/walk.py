@@ -9,10 +9,10 @@ import numpy as np
 
 from crawler_motion.errors import GaitError, KinematicsError, TrajectoryError
 from crawler_motion.model.config import Config
-from crawler_motion.model.kinematics import inverse_kinematics
-from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
+from crawler_motion.motion.fastpath import FastKinematics, Track
 from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams, check_trajectories
 from crawler_motion.planner.context import JointTarget, PlannerContext
+from crawler_motion.planner.footholds import Footholds
 from crawler_motion.planner.next_slot import PLAN_AHEAD_HORIZON, AheadJob, AheadPlan, plan_next
 from crawler_motion.planner.state import HOLDING, STANDING, STOPPING, WALK_STATES, WALKING
 
@@ -43,19 +43,13 @@ class WalkController:
         self.frozen_at: float | None = None  # steady time [s] a walk froze mid-slot
         self.last_twist = -math.inf
         self.ahead: AheadPlan | None = None
+        self.foothold = Footholds(cfg.robot)  # per-leg touch-down offsets
 
     def clear(self) -> None:
         """Forget the walk in progress (status counters stay for the status)."""
-        self.seq = None
-        self.slot = None
-        self.track = None
-        self.params = None
-        self.pending = None
-        self.pending_steps = None
-        self.stop_requested = False
-        self.waiting = False
-        self.frozen_at = None
-        self.ahead = None
+        self.seq = self.slot = self.track = self.params = self.pending = None
+        self.pending_steps = self.frozen_at = self.ahead = None
+        self.stop_requested = self.waiting = False
 
     def freeze(self, at: float) -> None:
         """Hold the last target from steady time ``at`` [s] until `thaw` (the clock stops)."""
@@ -95,6 +89,7 @@ class WalkController:
         self.groups = seq.n_groups
         self.source = source
         self.ctx.state = WALKING
+        self.foothold.start(self.ctx.hold)
         self._commit(slot, seq, now)
         self.ctx.journal.event(
             "info", f"walk ({source}): {params.gait}/{params.profile}, stride "
@@ -110,6 +105,7 @@ class WalkController:
         self.track = track if track is not None else Track(slot.legs)
         self.ahead = None
         self.params = slot.params
+        self.foothold.begin_slot(slot)
         if slot.kind == "steady":
             self.steady_planned += 1
         self.ctx.journal.touch(t0)
@@ -178,8 +174,7 @@ class WalkController:
 
     def _slot_end_pose(self) -> np.ndarray:
         assert self.track is not None
-        pos, _ = self.track.evaluate(self.track.t_end)
-        return inverse_kinematics(self.robot, np.reshape(pos, (-1, 3)))
+        return self.foothold.end_pose(self.track)
 
     def _finish(self, now: float) -> None:
         self.ctx.hold = self.ctx.hold_pose(self._slot_end_pose())
@@ -237,12 +232,15 @@ class WalkController:
             return ctx.hold
         assert self.track is not None
         try:  # plain-float IK + Jacobian: same numbers and errors as the numpy functions
-            q, qd = joint_targets(self.track, self._kin, now - self.slot_t0)
+            q, qd = self.foothold.targets(self.track, self._kin, now, self.slot_t0)
         except KinematicsError as exc:
             self.enter_holding(now, f"tick at {now:.3f} s failed: {exc}")
             return ctx.hold
         target = JointTarget(np.array(q), np.array(qd))
         ctx.last_target = target
+        if self.foothold.failure:  # no foot keeps descending: hold this pose
+            self.enter_holding(now, self.foothold.failure)
+            return ctx.hold
         return target
 
     def ahead_job(self, now: float | None) -> AheadJob | None:

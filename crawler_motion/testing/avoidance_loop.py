@@ -29,6 +29,7 @@ from crawler_motion.planner.core import PlannerCore
 from crawler_motion.sim.seabed.contacts import body_contact
 from crawler_motion.sim.seabed.model import SeabedModel, SimSettings
 from crawler_motion.sim.seabed.scanner import RangeScanner, ScannerSettings
+from crawler_motion.testing.lockstep import LockStep
 
 CONTROL_PERIOD = 0.01  # [s]
 SCAN_EVERY = 10  # control ticks (10 Hz)
@@ -82,7 +83,7 @@ def circle_clearance(view: TerrainView, x: float, y: float, radius: float) -> fl
     return float(np.hypot(dx, dy).min() - radius)
 
 
-class AvoidanceLoop:
+class AvoidanceLoop(LockStep):
     """One robot in one world, walking to one goal."""
 
     def __init__(self, cfg: Config, world: str, nav: NavigatorSettings | None = None,
@@ -103,10 +104,6 @@ class AvoidanceLoop:
         self.t = 0.0
         self.ticks = 0
 
-    def joints(self) -> np.ndarray:
-        """Measured joint angles ``(12,)`` [rad]."""
-        return self.data.qpos[self.sm.qpos_index].copy()
-
     def body(self) -> tuple[np.ndarray, np.ndarray]:
         """Rotation base_link -> world and position [m] of the body now."""
         return quaternion_matrix(self.data.qpos[3:7]), self.data.qpos[:3].copy()
@@ -124,14 +121,6 @@ class AvoidanceLoop:
             rot, pos = self.body()
             self.mapper.add_odometry(Pose(self.t, rot, pos))
         return body_contact(self.sm, self.data)
-
-    def stand(self, limit: float = 5.0) -> None:
-        """Stand up (the planner's stand move from the measured pose)."""
-        self.core.set_measured(self.joints(), self.t)
-        self.core.submit('{"command": "stand"}', self.t)
-        end = self.t + limit
-        while self.core.state != "STANDING" and self.t < end:
-            self.tick()
 
     def run(self, goal: tuple[float, float], limit: float = 120.0) -> LoopResult:
         """Walk to ``goal`` (world [m]) for at most ``limit`` s of simulated time."""

@@ -8,6 +8,7 @@ import pytest
 
 from crawler_motion.errors import CommandError
 from crawler_motion.model.config import load_config
+from crawler_motion.motion.foothold import FootholdSettings
 from crawler_motion.motion.gait import WalkParams, validate_params
 from crawler_motion.planner.parameters import (
     default_values,
@@ -29,15 +30,19 @@ def test_parameter_names_defaults_and_flags():
     assert [spec.name for spec in SPECS] == [
         "config_file", "calibration_file", "rate", "cmd_vel_timeout", "fault_hardware_id",
         "tick_priority", "contact_threshold", "contact_hysteresis", "contact_drive_inertia",
-        "contact_period", "gait", "profile", "stride", "lift", "arc", "swing_time",
-        "stance_profile", "margin", "body_height"]
+        "contact_period", "foothold_adapt", "foothold_tolerance", "foothold_stop_time",
+        "foothold_search_depth", "foothold_search_speed", "foothold_touch_force", "gait",
+        "profile", "stride", "lift", "arc", "swing_time", "stance_profile", "margin",
+        "body_height"]
     assert {name for name, spec in BY_NAME.items() if spec.read_only} == {
         "config_file", "calibration_file", "tick_priority"}
     assert default_values(SPECS) == {
         "config_file": "robot.yaml", "calibration_file": "", "rate": 100.0, "cmd_vel_timeout": 0.5,
         "fault_hardware_id": "motor_manager", "tick_priority": 0, "contact_threshold": 0.75,
         "contact_hysteresis": 0.5, "contact_drive_inertia": 0.005, "contact_period": 0.01,
-        "gait": G.gait,
+        "foothold_adapt": False, "foothold_tolerance": 0.006, "foothold_stop_time": 0.04,
+        "foothold_search_depth": 0.02, "foothold_search_speed": 0.02,
+        "foothold_touch_force": 2.0, "gait": G.gait,
         "profile": G.profile, "stride": G.stride, "lift": G.lift, "arc": G.arc,
         "swing_time": G.swing_time, "stance_profile": G.stance_profile,
         "margin": G.stability_margin,
@@ -67,6 +72,7 @@ def test_parameters_defaults_valid():
     s = settings(default_values(SPECS))
     assert s.rate == 100.0 and s.cmd_vel_timeout == 0.5 and s.fault_hardware_id == "motor_manager"
     assert s.tick_priority == 0 and s.config_file == "robot.yaml"
+    assert s.foothold == FootholdSettings()
     assert s.defaults == validate_params(WalkParams.defaults(G, body_height=0.07), CFG)
 
 
@@ -86,6 +92,9 @@ def test_parameters_defaults_valid():
     ({"speed": 1.0}, "unknown ['speed']"),
     ({"stride": True}, "stride must be a float, got True"),
     ({"tick_priority": 100}, "tick_priority must be within [0, 99], got 100"),
+    ({"foothold_tolerance": -0.001}, "foothold_tolerance must be within [0, 0.05] m"),
+    ({"foothold_search_depth": 0.11}, "foothold_search_depth must be within [0, 0.1] m"),
+    ({"foothold_adapt": 1}, "foothold_adapt must be a bool, got 1"),
 ])
 def test_parameters_refused(change, fragment):
     values = default_values(SPECS) | change
@@ -111,3 +120,6 @@ def test_parameters_boundaries_accepted():
     assert settings(lo).defaults.body_height == 0.05
     assert settings(hi).rate == 1000.0 and settings(hi).tick_priority == 99
     assert settings(default_values(SPECS) | {"stride": 0}).defaults.stride == 0.0
+    edge = settings(default_values(SPECS) | {"foothold_adapt": True, "foothold_search_depth": 0.1,
+                                             "foothold_stop_time": 0.005})
+    assert edge.foothold == FootholdSettings(enabled=True, search_depth=0.1, stop_time=0.005)
