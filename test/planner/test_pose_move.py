@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from crawler_motion.errors import CommandError
@@ -132,12 +132,17 @@ SMALL = st.builds(BodyPose, *(st.floats(-edge, edge) for edge in (0.015, 0.015, 
 
 @PROPERTY
 @given(SMALL, SMALL)
+@example(NEUTRAL, BodyPose(0.0, -0.01171875, 0.0078125, 0.0625, 0.0625, 0.09375))  # LB too far
 def test_every_tick_of_a_pose_move_keeps_every_foot_fixed(first, second):
     """Two pose moves in a row: FK of every published target, moved by the body pose in the
     status at that tick, is the standing feet within 1e-9 m; each ends at its pose exactly."""
     run = Run()
     for pose in (first, second):
-        run.pose(**pose.as_dict())
+        try:
+            run.pose(**pose.as_dict())
+        except CommandError as exc:  # small fields can still combine out of reach
+            assert "pose refused" in str(exc) and "leg" in str(exc), exc
+            assume(False)
         assert run.core.status()["body_pose"] == pose.as_dict()
         held = check_pose(CFG, HEIGHT, pose).reshape(-1)  # the held pose is the pose's IK
         np.testing.assert_allclose(run.q, held, atol=1e-12)
