@@ -39,6 +39,8 @@ from crawler_motion.motion.trajectory import (
 from crawler_motion.motion.walk_options import is_crawl
 from crawler_motion.motion.walk_params import WalkParams
 
+#: Shortest dwell that counts [s] (below it: rounding of the slot's time split).
+DWELL_EPS = 1e-12
 #: Rounding allowance of the stability margin check [m].
 MARGIN_TOLERANCE = 1e-9
 
@@ -87,6 +89,12 @@ class SlotPlan:
     final: bool
     sways: bool
 
+    @property
+    def dwell(self) -> float:
+        """Time with every foot down after the swing [s] (0 below rounding)."""
+        dwell = self.duration - self.swing_time
+        return dwell if dwell > DWELL_EPS else 0.0
+
 
 class SlotBuilder:
     """Builds slots one after the other, joining each to the last (see the module docstring)."""
@@ -123,10 +131,10 @@ class SlotBuilder:
         if p.stance_profile == StanceProfile.CONTINUOUS.value:
             velocity_end[:, :2] = -stride * speed * plan.rate_end
         sway3 = [np.append(s, 0.0) for s in sway]
-        dwell = plan.duration - plan.swing_time
+        dwell = plan.dwell
         sway_path = ([rest_segment(sway3[0], sway3[1], plan.swing_time, "sway")]
                      if plan.swing_time > 0 else [])
-        sway_path += [rest_segment(sway3[1], sway3[2], dwell, "sway")] if dwell > 1e-12 else []
+        sway_path += [rest_segment(sway3[1], sway3[2], dwell, "sway")] if dwell else []
         legs, contacts = [], []
         for i in range(robot.n_legs):
             for points, out in ((centres, legs), (ground, contacts)):
@@ -138,7 +146,7 @@ class SlotBuilder:
                     sway=Piecewise(sway_path))
         if is_crawl(self.cfg, p.gait):
             check_margin(slot, float(p.margin), self.cfg)  # type: ignore[arg-type]
-        last = 2 if dwell > 1e-12 else 1
+        last = 2 if dwell else 1
         self._touch, self._centres, self._sway = touch, centres[last], sway[last]
         self._velocity = velocity_end
         return slot
@@ -148,19 +156,21 @@ class SlotBuilder:
              velocity_end: np.ndarray) -> list[Segment]:
         """Segments of leg ``i`` through ``points`` (slot start, swing end, slot end)."""
         a, mid, fin = (pt[i] for pt in points)
-        v0, t_w, dwell = self._velocity[i], plan.swing_time, plan.duration - plan.swing_time
+        v0, t_w, dwell = self._velocity[i], plan.swing_time, plan.dwell
         segments: list[Segment] = []
         shape = SwingShape(p.lift, p.arc, t_w, self.cfg.gait.profiles[p.profile]) if (
             swinging) else None
         if shape is not None and p.stance_profile == StanceProfile.CONTINUOUS.value:
             segments = continuous_swing_segments(a, mid, shape, v0, velocity_end)
-        elif shape is not None:  # the swing in the world, seen from the swaying body
+        elif shape is not None and plan.sways:  # the swing in the world, seen from the body
             segments = minus_path(swing_segments(a + sway[0], mid + sway[1], shape),
                                   sway_path[0])
+        elif shape is not None:
+            segments = swing_segments(a, mid, shape)
         elif t_w > 0.0:
-            v_mid = velocity_end if dwell <= 1e-12 else np.zeros(3)
+            v_mid = np.zeros(3) if dwell else velocity_end
             segments = [glide_segment(a, mid, t_w, v0, v_mid, "stance")]
-        if dwell > 1e-12:
+        if dwell:
             segments.append(rest_segment(mid, fin, dwell, "stance"))
         return segments
 
@@ -191,7 +201,7 @@ def check_margin(slot: Slot, margin: float, cfg: Config, samples: int = 41) -> N
     """
     robot = cfg.robot
     parts = [(np.linspace(0.0, slot.swing_time, samples), slot.group)] if slot.swing_time else []
-    if slot.duration - slot.swing_time > 1e-12:
+    if slot.duration - slot.swing_time > DWELL_EPS:
         parts.append((np.linspace(slot.swing_time, slot.duration, samples), ()))
     for times, lifted in parts:
         stance = [i for i in range(robot.n_legs) if i not in lifted]

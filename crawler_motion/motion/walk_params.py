@@ -11,9 +11,9 @@ from dataclasses import dataclass, replace
 
 from crawler_motion.errors import GaitError
 from crawler_motion.model.config import Config, GaitConfig
+from crawler_motion.model.gait_config import STANCE_PROFILES
 from crawler_motion.motion.walk_options import (
     OPTIONS,
-    STANCE_PROFILES,
     clearance_error,
     default_stance_time,
     stance_time_error,

@@ -8,7 +8,7 @@ import numpy as np
 from crawler_motion.model.config import RobotConfig
 from crawler_motion.model.kinematics import inverse_kinematics
 from crawler_motion.motion.contact_estimation import FootContact
-from crawler_motion.motion.fastpath import FastKinematics, Track
+from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
 from crawler_motion.motion.foothold import FootholdAdapter, FootholdSettings
 from crawler_motion.motion.gait import Slot
 from crawler_motion.planner.contacts import ContactMonitor
@@ -73,11 +73,11 @@ class Footholds:
                 ) -> tuple[list[float], list[float]]:
         """Joint angles [rad] and rates [rad/s] at planner time ``now`` [s] of the slot
         ``track`` started at ``t0`` [s], each foot offset along z by its leg's offset."""
-        pos, vel = track.evaluate(now - t0)
         clock = self._base + (now - t0)
         states, forces = self._estimate()
         if states is None and self.adapter.quiet(clock):  # the blind plan, at its cost
-            return kin.solve(pos, vel)
+            return joint_targets(track, kin, now - t0)
+        pos, vel = track.evaluate(now - t0)
         z, zd = pos[2::3], vel[2::3]
         failure = self.adapter.update(clock, z, states, forces)
         if failure is not None and not self.failure:
