@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import csv
 import io
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -13,7 +15,7 @@ from crawler_motion.model.kinematics import forward_kinematics
 from crawler_motion.model.rotations import rpy_matrix
 from crawler_motion.motion.body_pose import POSE_FIELDS
 from crawler_motion.tools import cli
-from crawler_motion.tools.console import build_parser, command_from_args, describe
+from crawler_motion.tools.console import Console, build_parser, command_from_args, describe
 
 CFG = load_config()
 ROBOT = CFG.robot
@@ -73,3 +75,43 @@ def test_the_console_sends_the_pose_keys_it_was_given() -> None:
 ])
 def test_the_console_shows_the_body_pose(status, line) -> None:
     assert describe(status) == line
+
+
+class ScriptedConsole(Console):
+    """A `Console` without ROS: each spin delivers the next planner status of a script."""
+
+    def __init__(self, statuses: list[dict[str, Any]]) -> None:  # no node
+        self.status = {"state": "STANDING", "revision": 0, "refusals": 0}
+        self._script = iter(statuses)
+
+    def send(self, command: dict[str, Any]) -> None:
+        pass
+
+    def wait_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        for status in self._script:
+            self.status = status
+            if predicate():
+                return True
+        return predicate()
+
+
+def _status(revision: int, state: str, resuming: bool = False, x: float = 0.0,
+            event: str | None = None) -> dict[str, Any]:
+    return {"state": state, "revision": revision, "refusals": 0, "resuming": resuming,
+            "body_pose": {"x": x}, "last_event": event}
+
+
+@pytest.mark.parametrize(("script", "ok", "words"), [
+    ([_status(1, "MOVING"), _status(2, "MOVING", x=0.01), _status(3, "STANDING", x=0.02)],
+     True, "STANDING (pose x 0.02 m)"),
+    # starved: the move ends where it was, STANDING at a part of the pose, a resume due
+    ([_status(1, "MOVING"), _status(2, "STANDING", True, 1e-4, "interrupted (no tick)")],
+     False, "interrupted (no tick); the pose move stopped at STANDING (pose x 0.0001 m): "
+            "send the pose again"),
+    # the resume ended before the status was seen: the interruption was seen on the way
+    ([_status(1, "MOVING", True, 0.0, "interrupted (pause)"), _status(2, "STANDING", x=1e-3)],
+     False, "interrupted (pause)"),
+])
+def test_the_console_says_when_a_pose_move_was_interrupted(script, ok, words) -> None:
+    result = ScriptedConsole(script).run({"command": "pose", "x": 0.02}, 1.0)
+    assert result[0] is ok and words in result[1], result
