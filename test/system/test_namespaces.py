@@ -115,6 +115,25 @@ def _spin(robots: list[Robot], seconds: float) -> None:
             robot.console.spin_for(0.01)
 
 
+def _start_walk(console: Console, command: dict[str, Any]) -> None:
+    """Send ``command`` until the planner walks. A loaded machine may starve a planner while
+    it stands (its hold is interrupted, then resumed from the measured pose), and a walk sent
+    during the resume is refused with "retry when it is done": it is sent again after it."""
+    for _ in range(5):
+        refusals = console.status.get("refusals", 0)
+        console.send(command)
+        assert console.wait_until(lambda n=refusals: console.status.get("state") == "WALKING"
+                                  or console.status.get("refusals", 0) > n, WAIT), (
+            f"the walk neither started nor was refused: {console.status}")
+        if console.status.get("state") == "WALKING":
+            return
+        refusal = str(console.status.get("last_refusal"))
+        assert "retry when it is done" in refusal, refusal
+        assert console.wait_until(lambda: not console.status.get("resuming"), WAIT), (
+            console.status)
+    raise AssertionError(f"the walk was refused 5 times: {console.status}")
+
+
 def _endpoints_outside(robot: Robot) -> list[str]:
     """Endpoints of the robot's topics whose node is not in the robot's namespace."""
     node, bad = robot.console.node, []
@@ -138,8 +157,7 @@ def test_two_robots_in_one_domain_walk_independently_and_nothing_crosses(robots)
         assert ok, f"{robot.ns}: {message}\n{procs.log_tails(10)}"
         robot.console.spin_for(0.1)
         robot.standing_from, robot.stood = len(robot.commands), time.time()
-    one.console.send({"command": "walk", "steps": 2})
-    assert one.console.wait_until(lambda: one.console.status.get("state") == "WALKING", WAIT)
+    _start_walk(one.console, {"command": "walk", "steps": 2})
     # a fault of robot 2 (its manager frozen: the heartbeat stops) while robot 1 walks
     t_freeze = time.monotonic()
     sim2 = procs.pids()["sim2"]
@@ -150,7 +168,8 @@ def test_two_robots_in_one_domain_walk_independently_and_nothing_crosses(robots)
     finally:
         os.kill(sim2, signal.SIGCONT)
     frozen = time.monotonic() - t_freeze
-    assert one.console.wait_until(lambda: one.console.status.get("state") == "STANDING", WAIT)
+    assert one.console.wait_until(lambda: one.console.status.get("state") == "STANDING",
+                                  WAIT), f"robot 1 did not finish its walk: {one.console.status}"
     assert two.console.wait_until(lambda: not two.console.status.get("paused"), WAIT)
     _spin([one, two], 0.3)
 
