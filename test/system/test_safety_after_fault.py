@@ -226,16 +226,16 @@ def _recover_then_stand(stack: Any, what: str) -> str:
 
 
 def test_6_console_recover_then_stand_after_an_estop_and_after_a_watchdog_trip(make_stack):
-    stack = make_stack(command_timeout=0.5)
+    stack = make_stack()
     stack.up_and_walking()
     stack.console.send({"command": "estop"})
     assert stack.wait(lambda: stack.status.get("state") == "ESTOP")
     assert stack.wait(lambda: stack.sim.state == "estop")
     steps = _recover_then_stand(stack, "e-stop")
     stack.run({"command": "walk", "swing_time": fi.SWING})
-    # 4 x command_timeout: the watchdog trips even when a loaded machine delivers the last
+    # 3 x command_timeout: the watchdog trips even when a loaded machine delivers the last
     # commands before the freeze late
-    _freeze(stack, "planner_node", 2.0)
+    _freeze(stack, "planner_node", 3.0)
     assert stack.wait(lambda: stack.status.get("state") == "IDLE"), stack.status
     trip = _recover_then_stand(stack, "watchdog trip")
     _report(f"recover after e-stop: {steps}; after a watchdog trip: {trip}; stand works")
