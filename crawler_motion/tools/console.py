@@ -32,6 +32,9 @@ DONE_STATES: dict[str, tuple[str, ...]] = {
     "stand": ("STANDING",), "sit": ("SITTING",), "stop": ("STANDING",), "estop": ("ESTOP",),
     "reset": ("IDLE",), "pose": ("STANDING",),
 }
+#: Words of the planner's refusals that clear by themselves (`Console.run_when_ready`): a
+#: pause, a resume from the measured pose after it, no measurement yet.
+TRANSIENT_REFUSALS = ("paused", "resum", "no measured")
 #: Help of the actions that are more than one gait command sent as it is.
 ACTION_HELP: dict[str, str] = {
     "stand": "stand up from the measured pose",
@@ -219,15 +222,18 @@ class Console:
                        retry_for: float | None = None) -> tuple[bool, str]:
         """`run`, retried every 0.5 s for up to ``retry_for`` [s] (default ``timeout``) while
         the planner refuses it only for a transient reason: paused by a motor-manager fault
-        such as a late heartbeat (waits for the pause to clear), or no measured joint_states
-        yet (the driver's feedback still being discovered)."""
+        such as a late heartbeat (waits for the pause to clear), a resume from the measured
+        pose in progress after one (waits for it to end), or no measured joint_states yet (the
+        driver's feedback still being discovered). For scripted sequences (the demo, tests);
+        an operator's one command is `run` once."""
         end = time.monotonic() + (timeout if retry_for is None else retry_for)
         ok, message = self.run(command, timeout)
-        while not ok and ("paused" in message or "no measured" in message):
+        while not ok and any(word in message for word in TRANSIENT_REFUSALS):
             if time.monotonic() >= end:
                 break
             self.spin_for(0.5)
-            self.wait_until(lambda: not (self.status or {}).get("paused"),
+            self.wait_until(lambda: not ((self.status or {}).get("paused")
+                                         or (self.status or {}).get("resuming")),
                             max(0.0, end - time.monotonic()))
             ok, message = self.run(command, timeout)
         return ok, message

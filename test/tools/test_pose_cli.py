@@ -83,8 +83,12 @@ class ScriptedConsole(Console):
     def __init__(self, statuses: list[dict[str, Any]]) -> None:  # no node
         self.status = {"state": "STANDING", "revision": 0, "refusals": 0}
         self._script = iter(statuses)
+        self.sent = 0
 
     def send(self, command: dict[str, Any]) -> None:
+        self.sent += 1
+
+    def spin_for(self, seconds: float) -> None:
         pass
 
     def wait_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
@@ -115,3 +119,21 @@ def _status(revision: int, state: str, resuming: bool = False, x: float = 0.0,
 def test_the_console_says_when_a_pose_move_was_interrupted(script, ok, words) -> None:
     result = ScriptedConsole(script).run({"command": "pose", "x": 0.02}, 1.0)
     assert result[0] is ok and words in result[1], result
+
+
+def _refused(revision: int, refusals: int, why: str) -> dict[str, Any]:
+    return {"state": "STANDING", "revision": revision, "refusals": refusals,
+            "resuming": True, "last_refusal": why}
+
+
+@pytest.mark.parametrize(("why", "sent"), [
+    ("walk refused: resuming from the measured pose; retry when it is done", 2),
+    ("walk refused in state MOVING: a resume after pause: x move is in progress; wait", 2),
+    ("walk refused: paused: motor manager fault; retry when it clears", 2),
+    ("walk refused: the body is posed: send stand first", 1),  # not transient: said once
+])
+def test_a_scripted_walk_waits_out_a_resume_but_not_a_real_refusal(why, sent) -> None:
+    console = ScriptedConsole([_refused(1, 1, why), {**_refused(2, 1, why), "resuming": False},
+                               _status(3, "WALKING"), _status(4, "STANDING")])
+    ok, message = console.run_when_ready({"command": "walk", "steps": 1}, 1.0)
+    assert console.sent == sent and ok is (sent == 2), message
