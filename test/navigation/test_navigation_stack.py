@@ -58,8 +58,9 @@ def test_goto_walks_the_simulated_robot_to_the_goal(tmp_path: Path, ros_domain: 
         assert (data == 0).sum() > 100 and not (data == 100).any()  # flat: free, no obstacle
         ok, message = goals.goto(0.5, 0.0, "map", 10.0)  # wrong frame: refused
         assert not ok and "frame" in message
-        console.spin_for(1.0)
-        assert (console.status or {}).get("state") == "STANDING"
+        # arrived: the walk's stop half steps end standing
+        assert console.wait_until(
+            lambda: (console.status or {}).get("state") == "STANDING", 15.0), console.status
         ok, message = goals.goto(1.0, 0.0, "odom", 1.5)  # walks off; times out, cancels
         assert not ok and "goal cancelled" in message
         assert goals.spin_until(lambda: (goals.status or {}).get("state") == "IDLE", 5.0)
