@@ -38,6 +38,7 @@ class Resumer:
         self._move: JointMove | None = None  # the resume move of a walk
         self._interrupted: JointMove | None = None  # a stand / sit move interrupted
         self.resumes = 0
+        self.interruptions = 0  # interruptions of a motion so far (a resume was due after each)
         self._epoch: int | None = None  # the driver's enable epoch last seen
         self._since = 0.0  # steady time of the interruption [s]
 
@@ -115,6 +116,7 @@ class Resumer:
                 ctx.hold = ctx.hold_pose(ctx.last_target.positions)
             self._interrupted = self.moves.interrupt(at)  # None: a pose move, now STANDING
         if not self.pending:
+            self.interruptions += 1
             ctx.journal.event("warn", f"interrupted ({why}): holding; resuming from the "
                                       f"measured pose when it clears")
         self.pending = why

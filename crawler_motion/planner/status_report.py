@@ -35,6 +35,7 @@ def planner_status(core: PlannerCore, late_ticks: int, stand_height: float) -> d
         "last_event": journal.last_event,
         "late_ticks": late_ticks,
         "resuming": core.resumer.active,
+        "interruptions": core.resumer.interruptions,
         "driver": core.driver.report.state if core.driver.report else None,
         "contacts": core.contacts.report(),
         "revision": journal.revision,

@@ -186,7 +186,7 @@ class Console:
         name = command.get("command")
         self.send(command)
         seen: list[str] = []
-        interruptions: list[str] = []  # last_event of statuses with a resume due
+        interruptions = self.status.get("interruptions", 0)
 
         def refused() -> bool:
             return self.status is not None and self.status.get("refusals", 0) > refusals
@@ -195,8 +195,6 @@ class Console:
             st = self.status or {}
             if st.get("revision", -1) != revision:
                 seen.append(str(st.get("state")))
-                if st.get("resuming"):
-                    interruptions.append(str(st.get("last_event")))
             if refused():
                 return True
             if name == "pose":  # from STANDING through MOVING back to STANDING
@@ -213,9 +211,11 @@ class Console:
             return False, f"refused: {self.status.get('last_refusal')}"  # type: ignore[union-attr]
         if not done:
             return False, f"timed out after {timeout:g} s in {describe(self.status or {})}"
-        if name == "pose" and interruptions:  # a pose move ends where it was interrupted
-            return False, (f"{interruptions[0]}; the pose move stopped at "
-                           f"{describe(self.status or {})}: send the pose again")
+        status = self.status or {}
+        if name == "pose" and status.get("interruptions", 0) != interruptions:
+            # a pose move ends where it was interrupted (a status in between may be missed)
+            return False, (f"interrupted ({status.get('last_event')}); the pose move stopped "
+                           f"at {describe(status)}: send the pose again")
         return True, describe(self.status or {})
 
     def run_when_ready(self, command: dict[str, Any], timeout: float,

@@ -115,7 +115,21 @@ def test_a_short_late_tick_does_not_interrupt():
     run.walking()
     run.t += FREEZE_GAP - 2 * DT
     run.tick()
-    assert not run.core.status()["resuming"]
+    assert not run.core.status()["resuming"] and run.core.status()["interruptions"] == 0
+
+
+def test_the_status_counts_interruptions_once_each():
+    run = Run()
+    run.walking()
+    for n in (1, 2):
+        run.t += FREEZE_GAP + DT
+        run.tick()
+        assert run.core.status()["interruptions"] == n
+        run.core.set_paused(True, run.t, "heartbeat missing")  # while the resume runs: a walk
+        run.core.set_paused(False, run.t)  # runs on to its slot end, no new interruption
+        assert run.core.status()["interruptions"] == n
+        run.run(2.0)
+        assert not run.core.status()["resuming"]
 
 
 def test_a_measurement_from_before_the_interruption_is_not_resumed_from():
