@@ -47,11 +47,53 @@ def _counter(value: Any) -> int:
     return number
 
 
+def _bounds(signal: Any) -> tuple[float, float]:
+    """The signal's DBC range widened by `RANGE_SLACK` (infinite where it is open)."""
+    tol = abs(signal.scale) * RANGE_SLACK
+    return (-math.inf if signal.minimum is None else signal.minimum - tol,
+            math.inf if signal.maximum is None else signal.maximum + tol)
+
+
+def _may_exceed(signal: Any) -> bool:
+    """False when no value the signal's bits can hold lies beyond its (widened) DBC range,
+    e.g. a 1-bit flag of range [0, 1]: decoded values of it need no range check."""
+    if signal.conversion.is_float:
+        return True
+    bits = signal.length - (1 if signal.is_signed else 0)
+    ends = [signal.conversion.raw_to_scaled(raw, False)
+            for raw in ((-(1 << bits) if signal.is_signed else 0), (1 << bits) - 1)]
+    low, high = _bounds(signal)
+    return not all(low <= end <= high for end in ends)
+
+
+def _range_checks(index: DbcIndex) -> dict[int, tuple[tuple[Any, float, float], ...]]:
+    """Per frame id: (signal, lowest, highest value accepted) of each signal whose decoded
+    values need a range check (`_may_exceed`)."""
+    return {fid: tuple((signal, *_bounds(signal)) for signal in f.message.signals
+                       if _may_exceed(signal))
+            for fid, f in index.frames.items()}
+
+
 def _in_range(signal: Any, value: float) -> bool:
     """True when ``value`` lies within the signal's DBC range (open ends allowed)."""
-    tol = abs(signal.scale) * RANGE_SLACK
-    return not ((signal.minimum is not None and value < signal.minimum - tol)
-                or (signal.maximum is not None and value > signal.maximum + tol))
+    low, high = _bounds(signal)
+    return low <= value <= high
+
+
+def _pack(frame: DbcFrame, values: dict[str, Any]) -> bytes:
+    """The payload of signal ``values``: by the frame's compiled layout, else by cantools
+    (strict: the same result, see `layout`)."""
+    if frame.layout is not None:
+        return frame.layout.pack(values)
+    return frame.message.encode(values, scaling=True, padding=False, strict=True)
+
+
+def _unpack_payload(frame: DbcFrame, data: bytes) -> dict[str, Any]:
+    """The scaled signal values of a payload (no choices decoded), as `_pack` packs them."""
+    if frame.layout is not None:
+        return frame.layout.unpack(data)
+    return frame.message.decode(data, decode_choices=False, scaling=True,
+                                allow_truncated=False, allow_excess=False)
 
 
 class FrameCodec:
@@ -65,6 +107,7 @@ class FrameCodec:
         self._index = index
         self._joints = joints
         self.feedback_margin = feedback_margin
+        self._ranges = _range_checks(index)
         self._decoders: dict[FrameKind, Callable[[DbcFrame, Mapping[str, Any]], Decoded]] = {
             FrameKind.CONTROL: self._decode_control,
             FrameKind.HEARTBEAT: self._decode_heartbeat,
@@ -80,8 +123,7 @@ class FrameCodec:
         if frame.checksum_byte is not None:
             values["Checksum"] = 0
         try:
-            data = bytearray(frame.message.encode(values, scaling=True, padding=False,
-                                                  strict=True))
+            data = bytearray(_pack(frame, values))
         except Exception as exc:
             raise self._encode_failure(frame, values, exc) from exc
         if frame.checksum_byte is not None:
@@ -226,13 +268,12 @@ class FrameCodec:
                 raise bad(f"{where} checksum 0x{got:02X} != 0x{expected:02X}",
                           signal="Checksum", value=got)
         try:
-            values = frame.message.decode(data, decode_choices=False, scaling=True,
-                                          allow_truncated=False, allow_excess=False)
+            values = _unpack_payload(frame, data)
         except Exception as exc:
             raise bad(f"{where} cannot be decoded: {exc}") from exc
-        for signal in frame.message.signals:
+        for signal, low, high in self._ranges[fid]:
             value = values[signal.name]
-            if not _in_range(signal, value):
+            if not low <= value <= high:
                 raise bad(f"{frame.name}.{signal.name} = {value} is outside its range "
                           f"[{signal.minimum}, {signal.maximum}] {signal.unit or ''}",
                           signal=signal.name, value=value)

@@ -19,6 +19,7 @@ from crawler_motion.canbus.frames import (
     POSITION_KINDS,
     FrameKind,
 )
+from crawler_motion.canbus.layout import FrameLayout, compile_layout
 from crawler_motion.errors import ProtocolError, ProtocolParseError
 
 #: Heartbeat period when the DBC gives MM_Heartbeat no cycle time [s].
@@ -49,6 +50,7 @@ class DbcFrame:
     counter_bits: int
     checksum_byte: int | None
     used_mask: int  # every bit some signal covers; the rest are reserved (zero)
+    layout: FrameLayout | None = None  # the compiled packing (None: cantools packs it)
 
     @property
     def name(self) -> str:
@@ -155,7 +157,8 @@ class DbcIndex:
         frame = DbcFrame(message=message, kind=kind, group=group,
                          axis_signals=tuple(sorted(axis_signals)),
                          flag_signals=self._flag_signals(message.name, flags),
-                         counter_bits=counter_bits, checksum_byte=checksum_byte, used_mask=used)
+                         counter_bits=counter_bits, checksum_byte=checksum_byte, used_mask=used,
+                         layout=compile_layout(message))
         self.frames[message.frame_id] = frame
         if grouped:
             self.groups[kind].append(frame)

@@ -115,6 +115,8 @@ class DriverNode(LifecycleNode):
         self._driver_status_pub = self.create_publisher(String, "driver_status", STATUS_QOS)
         self._driver_status, self._instance = "", uuid.uuid4().hex[:12]  # new at every start
         self.commands = CommandInput(self, lambda: self._core)  # topic and direct hand-over
+        #: ``on_joint_state(msg)`` receives each published joint state (composed controller).
+        self.on_joint_state: Callable[[JointState], None] | None = None
         self.create_subscription(Bool, "estop", self._on_estop_topic, 10)
         self.create_subscription(String, "planner_status", self._on_planner_status, 10)
         self.create_service(Trigger, "~/enable", self._on_enable)
@@ -301,15 +303,21 @@ class DriverNode(LifecycleNode):
     # ---- publishing ------------------------------------------------------------------------
 
     def _publish_joint_state(self, positions: np.ndarray, efforts: np.ndarray) -> None:
-        """Publish one measured joint state, efforts [N m] empty when not reported (called from
-        the core's receive thread)."""
+        """Publish one measured joint state, efforts [N m] empty when not reported, and hand it
+        to `on_joint_state` (called from the core's receive thread)."""
         def make() -> JointState:
             msg = JointState(name=list(self._joint_names), position=positions.tolist(),
                              effort=efforts.tolist())
             msg.header.stamp = self.get_clock().now().to_msg()
             return msg
 
-        publish_unless_shut_down(self._joint_state_pub, make, self.context)
+        msg = publish_unless_shut_down(self._joint_state_pub, make, self.context)
+        if msg is not None and self.on_joint_state is not None:
+            try:
+                self.on_joint_state(msg)
+            except Exception as exc:  # the CAN thread must outlive a failing receiver
+                self.get_logger().error(f"joint state hand-over failed: {type(exc).__name__}: "
+                                        f"{exc}", throttle_duration_sec=1.0)
 
     def _publish_driver_status(self, always: bool) -> None:
         text = json.dumps(driver_status(self._core, self._label, self._latched,

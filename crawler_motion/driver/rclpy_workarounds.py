@@ -38,9 +38,9 @@ def guard_change_state(node: LifecycleNode, on_refused: Callable[[str], None]) -
 
 
 def publish_unless_shut_down(publisher: Publisher, make: Callable[[], Any],
-                             context: Context) -> None:
-    """Publish the message ``make()`` builds, from a thread other than the executor's; nothing
-    once shutting down (the message is not even built then).
+                             context: Context) -> Any:
+    """Publish the message ``make()`` builds, from a thread other than the executor's, and
+    return it; nothing once shutting down (the message is not even built then: None).
 
     A shutdown (Ctrl-C) may invalidate the context between the check and the publish; rclpy
     then raises RCLError (a RuntimeError) "publisher's context is invalid" (the shutdown race
@@ -48,9 +48,12 @@ def publish_unless_shut_down(publisher: Publisher, make: Callable[[], Any],
     That error is ignored while shutting down and raised otherwise.
     """
     if not context.ok():
-        return
+        return None
+    msg = make()
     try:
-        publisher.publish(make())
+        publisher.publish(msg)
     except RuntimeError:
         if context.ok():
             raise
+        return None
+    return msg

@@ -57,14 +57,19 @@ class GaitConfig:
     swing_time_range: tuple[float, float]
     gaits: dict[str, tuple[tuple[str, ...], ...]] = field(default_factory=dict)
     profiles: dict[str, ProfileConfig] = field(default_factory=dict)
-    #: All-feet-down time [s] of each slot of a crawl gait (one leg per group), in which the
-    #: body sways over the next support triangle (`crawler_motion.motion.sway`).
+    #: Mean all-feet-down time [s] per slot of a crawl gait (one leg per group), in which the
+    #: body sways over the next support triangle (`crawler_motion.motion.sway`; each transfer
+    #: sized to the body's travel in it, `crawler_motion.motion.gait.GaitSequencer`).
     transfer_time: float = 0.3
     #: Default static stability margin of crawl gaits [m]: the body centre's distance inside
     #: the support polygon at every instant.
     stability_margin: float = 0.015
     #: Default stance profile of walks: "rest" or "continuous" (`crawler_motion.motion.slot`).
     stance_profile: str = "rest"
+    #: The phase tables' own mean all-feet-down time per slot [s] of their default stance time,
+    #: by gait (key ``transfer_time`` of a table; without it: ``transfer_time`` for a crawl
+    #: gait, none for another, `crawler_motion.motion.walk_options.gait_transfer_time`).
+    transfers: dict[str, float] = field(default_factory=dict)
 
 
 def _parse_gaits(data: Mapping[str, Any], legs: tuple[str, ...], where: str
@@ -83,6 +88,18 @@ def _parse_gaits(data: Mapping[str, Any], legs: tuple[str, ...], where: str
                               f"once per step, got {groups}")
         gaits[str(name)] = tuple(tuple(group) for group in groups)
     return gaits
+
+
+def _parse_transfers(data: Mapping[str, Any], where: str) -> dict[str, float]:
+    transfers: dict[str, float] = {}
+    for name, table in _section(data, "gaits", where).items():
+        if isinstance(table, Mapping) and "transfer_time" in table:
+            what = f"{where}.gaits.{name}.transfer_time"
+            value = _number(table["transfer_time"], what)
+            if value < 0:
+                raise ConfigError(f"{what} must be >= 0 s, got {value}")
+            transfers[str(name)] = value
+    return transfers
 
 
 def _parse_profiles(data: Mapping[str, Any], where: str) -> dict[str, ProfileConfig]:
@@ -130,7 +147,8 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
         transfer_time=_positive(data.get("transfer_time", 0.3), f"{where}.transfer_time"),
         stability_margin=_number(data.get("stability_margin", 0.015),
                                  f"{where}.stability_margin"),
-        stance_profile=str(data.get("stance_profile", "rest")))
+        stance_profile=str(data.get("stance_profile", "rest")),
+        transfers=_parse_transfers(data, where))
     if cfg.stance_profile not in STANCE_PROFILES:
         raise ConfigError(f"{where}.stance_profile must be one of {list(STANCE_PROFILES)}, got "
                           f"{cfg.stance_profile!r}")

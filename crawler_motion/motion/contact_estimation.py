@@ -154,6 +154,11 @@ class ContactEstimator:
         """New thresholds and inertia (the contact states stay)."""
         self.settings = settings
 
+    @property
+    def angles(self) -> np.ndarray | None:
+        """The newest sample's joint angles ``(n_legs, 3)`` [rad] (a copy), None before one."""
+        return self._samples[-1][1].copy() if self._samples else None
+
     def update(self, stamp: float, angles: np.ndarray, efforts: np.ndarray | None
                ) -> ContactEstimate:
         """Take one sample stamped ``stamp`` [s]: ``angles`` ``(n_legs, 3)`` or flat [rad],

@@ -135,6 +135,14 @@ def stop_quintic(z: float, v: float, a: float, duration: float) -> tuple[float, 
     return (z, v, a / 2.0, c3, c4, c5)
 
 
+def lowering_start(plan: Piecewise, swing_time: float) -> float:
+    """Slot time [s] a swing of ``swing_time`` [s] along ``plan`` starts lowering (its first
+    ``lower`` segment; half the swing if it has none)."""
+    lower = [b for b, phase in zip(plan.breaks[:-1], plan.phases, strict=True)
+             if phase == "lower" and b < swing_time]
+    return float(lower[0]) if lower else 0.5 * swing_time
+
+
 def polynomial(c: Sequence[float], s: float) -> tuple[float, float, float]:
     """Value and first two derivatives of the polynomial ``c`` (ascending) at ``s``."""
     p = dp = ddp = 0.0
@@ -201,15 +209,20 @@ class FootholdAdapter:
         search still running at lift-off, which the timing of a walk does not produce, blends
         from where it would end.)"""
         leg = self._legs[i]
-        lower = [b for b, phase in zip(plan.breaks[:-1], plan.phases, strict=True)
-                 if phase == "lower" and b < swing_time]
-        t_lower = float(lower[0]) if lower else 0.5 * swing_time
+        t_lower = lowering_start(plan, swing_time)
         z_ground = float(plan.evaluate(swing_time)[0][0, 2])
         leg.swing = _Swing(t0, t0 + t_lower, t0 + swing_time, z_ground, plan)
         value = self.held()[i]
         leg.mode, leg.value, leg.t_start, leg.duration = Mode.BLEND, value, t0, t_lower
         if value == 0.0 or t_lower <= TIME_EPS:
             leg.mode = Mode.HELD  # nothing to blend (or no time to: keep the foothold)
+
+    def replan_swing(self, i: int, plan: Piecewise, t_lower: float) -> None:
+        """Leg ``i``'s swing goes on along ``plan`` (same start, end and touch-down) and lowers
+        from ``t_lower`` [s] of slot time (a stumble's retry)."""
+        swing = self._legs[i].swing
+        if swing is not None:
+            swing.plan, swing.t_lower = plan, swing.t0 + t_lower
 
     def quiet(self, now: float) -> bool:
         """True if every offset is 0 and stays 0 without contacts (no blend, stop or search

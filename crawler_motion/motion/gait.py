@@ -15,9 +15,10 @@ the spec's half step: the first pair swings from the stride middle to the front 
 from __future__ import annotations
 
 import copy
+import itertools
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -28,16 +29,20 @@ from crawler_motion.model.kinematics import inverse_kinematics, joint_velocities
 from crawler_motion.motion.slot import Slot, SlotBuilder, SlotPlan
 from crawler_motion.motion.sway import creep_order
 from crawler_motion.motion.trajectory import Piecewise
-from crawler_motion.motion.walk_options import is_crawl, sways
+from crawler_motion.motion.walk_options import MIN_TRANSFER_TIME, is_crawl, sways
 from crawler_motion.motion.walk_params import WalkParams, validate_params
 
 __all__ = ["CHECK_PERIOD", "GaitSequencer", "Slot", "SlotPlan", "WalkParams", "WalkPlan",
-           "check_trajectories", "iter_walk", "plan_walk", "standing_pose", "validate_params"]
+           "check_trajectories", "iter_walk", "plan_walk", "standing_pose", "transfer_rate",
+           "validate_params"]
 
 #: Sampling period used to check a planned walk against the workspace and the limits [s].
 CHECK_PERIOD = 0.005
 #: Relative tolerance of the joint velocity check of a planned walk (rounding only).
 VELOCITY_EPS = 1e-9
+#: Added to the body's travel in every transfer before the transfer is sized [m]: a transfer
+#: that barely moves the body still gets time to settle the feet that just landed.
+TRANSFER_FLOOR = 0.001
 
 
 class GaitSequencer:
@@ -58,6 +63,7 @@ class GaitSequencer:
         self._count = 0  # slots done in the current phase
         self._slot_params = self.params  # parameters of the last planned slot
         self._builder = SlotBuilder(cfg)  # joins each slot's trajectories to the last
+        self._rate: tuple[object, float] = ((), 0.0)  # (walk key, transfer rate [s/m^0.5])
 
     def __copy__(self) -> GaitSequencer:
         """A copy that plans on without touching this one (the planner tries the next slot on
@@ -123,9 +129,9 @@ class GaitSequencer:
             if self._sways(p):  # sway over the first support before a foot lifts
                 slot_time, _, _ = self._fractions(p)
                 zero = np.zeros_like(self.offsets)
-                return self._builder.build(SlotPlan(
+                return self._builder.build(self._timed(SlotPlan(
                     "start", (), self._group(0), (zero, zero, zero), slot_time - p.swing_time,
-                    0.0, 0.0, False, True), p, self.stride_vectors(p), 0.0)
+                    0.0, 0.0, False, True), p), p, self.stride_vectors(p), 0.0)
         if self.phase == "steady" and stopping:
             self.phase, self._count = "stop", 0
         if self.phase == "stop":
@@ -148,9 +154,10 @@ class GaitSequencer:
         inc_swing = inc * p.swing_time / slot_time
         start = self.offsets.copy()
         mid = np.where(swinging[:, None], target * stride, start - inc_swing * stride)
-        plan = SlotPlan(self.phase, group, self._group(self._group_index + 1),
-                        (start, mid, mid - (inc - inc_swing) * stride), slot_time, p.swing_time,
-                        rate, self.phase == "stop" and k == n - 2, self._sways(p))
+        plan = self._timed(SlotPlan(
+            self.phase, group, self._group(self._group_index + 1),
+            (start, mid, mid - (inc - inc_swing) * stride), slot_time, p.swing_time, rate,
+            self.phase == "stop" and k == n - 2, self._sways(p)), p)
         slot = self._builder.build(plan, p, stride, 1.0 / float(p.stance_time))  # type: ignore[arg-type]
         self.offsets = slot.offsets_end
         self._slot_params = p
@@ -168,19 +175,90 @@ class GaitSequencer:
         names = self.cfg.gait.gaits[self.params.gait][self._order[index % self.n_groups]]
         return tuple(self.robot.legs.index(leg) for leg in names)
 
+    def _timed(self, plan: SlotPlan, p: WalkParams) -> SlotPlan:
+        """``plan`` with its transfer sized to the body's travel over the ground in it, for a
+        crawl (unchanged otherwise: the diagonal gait's transfers travel alike): ``max(
+        MIN_TRANSFER_TIME, rate x sqrt(travel + TRANSFER_FLOOR))`` with the walk's
+        `_transfer_rate`, so every transfer of a steady cycle asks about the same peak
+        acceleration of the body (travel / time²) and the cycle lasts as long as with equal
+        transfers."""
+        if not (plan.sways and is_crawl(self.cfg, p.gait)):
+            return plan
+        travel = self._builder.transfer_travel(plan, p)
+        transfer = max(MIN_TRANSFER_TIME,
+                       self._transfer_rate(p) * math.sqrt(travel + TRANSFER_FLOOR))
+        return replace(plan, duration=plan.swing_time + transfer)
+
+    def _transfer_rate(self, p: WalkParams) -> float:
+        """Transfer time per square root of travel [s/m^0.5] of the walk: the one that sizes
+        the transfers of a steady cycle (`_timed`) to the walk's total transfer time,
+        ``groups x (slot time - swing time)`` (cached per parameters and swing order)."""
+        key = (p, self._order)
+        if self._rate[0] == key:
+            return self._rate[1]
+        n = self.n_groups
+        slot_time, b, _ = self._fractions(p)
+        stride = self.stride_vectors(p)
+        inc_swing = b * p.swing_time / slot_time
+        offsets = np.zeros_like(self.offsets)
+        weights = []
+        for k in range(2 * n):  # the steady offsets, reached after one cycle from any start
+            swinging = np.isin(np.arange(self.robot.n_legs), self._group(k))
+            mid = np.where(swinging[:, None], 0.5 * stride, offsets - inc_swing * stride)
+            end = mid - (b - inc_swing) * stride
+            if k >= n:
+                plan = SlotPlan("steady", self._group(k), self._group(k + 1),
+                                (offsets, mid, end), slot_time, p.swing_time, 1.0, False, True)
+                weights.append(math.sqrt(self._builder.transfer_travel(plan, p)
+                                         + TRANSFER_FLOOR))
+            offsets = end
+        rate = transfer_rate(weights, n * (slot_time - p.swing_time))
+        self._rate = (key, rate)
+        return rate
+
     def _sways(self, p: WalkParams) -> bool:
         """True when the walk sways its body (`walk_options.sways`)."""
         return sways(self.cfg, p.gait, p.swing_time, float(p.stance_time))  # type: ignore[arg-type]
 
     def _swing_order(self, p: WalkParams) -> tuple[int, ...]:
-        """The gait table's order, or for a crawl gait walking (not only turning) the creep
-        order of `sway.creep_order` for the direction of travel."""
+        """The gait table's order; for a crawl gait walking (not only turning) the creep
+        order of `sway.creep_order` for the direction of travel; for a crawl turning on the
+        spot the order (first group first) whose steady transfers move the body least, i.e.
+        with the largest `_transfer_rate` (going round the body in the turn's sense: the table
+        order made every transfer cross a support diagonal, 26-51 mm of sway each)."""
         n = len(self.cfg.gait.gaits[p.gait])
-        if not is_crawl(self.cfg, p.gait) or p.stride == 0.0:
+        if not is_crawl(self.cfg, p.gait):
             return tuple(range(n))
+        if p.stride == 0.0:
+            best, rate = tuple(range(n)), -1.0
+            for rest in itertools.permutations(range(1, n)):
+                self._order = (0, *rest)
+                try:
+                    found = self._transfer_rate(p)
+                except GaitError:  # no sway keeps the margin: refused when the slot is built
+                    continue
+                if found > rate:
+                    best, rate = self._order, found
+            return best
         legs = creep_order(self.robot.standing_feet(p.body_height)[:, :2], p.heading)
         table = [self.robot.legs.index(g[0]) for g in self.cfg.gait.gaits[p.gait]]
         return tuple(table.index(leg) for leg in legs)
+
+
+def transfer_rate(weights: Sequence[float], total: float) -> float:
+    """The rate ``r`` with ``sum(max(MIN_TRANSFER_TIME, r x w)) == total`` [s] for the
+    positive ``weights`` (0 when every transfer is at its shortest)."""
+    floor = MIN_TRANSFER_TIME
+    clamped: set[int] = set()
+    while True:
+        free = sum(w for i, w in enumerate(weights) if i not in clamped)
+        if free <= 0.0:
+            return 0.0
+        rate = max(0.0, total - floor * len(clamped)) / free
+        short = {i for i, w in enumerate(weights) if rate * w < floor}
+        if short <= clamped:
+            return rate
+        clamped |= short
 
 
 @dataclass

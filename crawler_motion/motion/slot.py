@@ -151,6 +151,19 @@ class SlotBuilder:
         self._velocity = velocity_end
         return slot
 
+    def transfer_travel(self, plan: SlotPlan, p: WalkParams) -> float:
+        """Largest horizontal travel [m] of a contact point relative to the body over the
+        transfer of ``plan`` (the planned body motion plus the change of the sway): the body's
+        motion over the ground that the all-feet-down time has to carry. Nothing is built."""
+        center = self.robot.standing_feet(p.body_height)
+        swinging = np.isin(np.arange(self.robot.n_legs), plan.group)
+        ground = [center.copy() for _ in range(3)]
+        for g, off in zip(ground, plan.offsets, strict=True):
+            g[:, :2] += off
+        sway = self._sway_targets(plan, p, swinging, ground)
+        travel = (plan.offsets[2] - plan.offsets[1]) - (sway[2] - sway[1])
+        return float(np.max(np.linalg.norm(travel, axis=-1)))
+
     def _leg(self, i: int, points: list[np.ndarray], swinging: bool, plan: SlotPlan,
              p: WalkParams, sway: list[np.ndarray], sway_path: list[Segment],
              velocity_end: np.ndarray) -> list[Segment]:

@@ -229,12 +229,21 @@ def sways(cfg: Config, gait: str, swing_time: float, stance_time: float) -> bool
     return transfer >= MIN_TRANSFER_TIME - PAIR_TOLERANCE
 
 
+def gait_transfer_time(cfg: Config, gait: str) -> float:
+    """Mean all-feet-down time per slot [s] of ``gait``'s default stance time: its phase
+    table's ``transfer_time``, else ``gait.transfer_time`` for a crawl gait, else 0."""
+    own = cfg.gait.transfers.get(gait)
+    if own is not None:
+        return own
+    return cfg.gait.transfer_time if is_crawl(cfg, gait) else 0.0
+
+
 def default_stance_time(cfg: Config, gait: str, swing_time: float) -> float:
-    """Stance time [s] of a walk that does not set one: ``(groups - 1) x swing_time``, plus
-    ``groups x transfer_time`` for a crawl gait (its all-feet-down sway in every slot)."""
+    """Stance time [s] of a walk that does not set one: ``(groups - 1) x swing_time`` plus
+    ``groups x`` `gait_transfer_time` (a crawl gait's all-feet-down sway in every slot; the
+    diagonal gait has none unless its table sets one, docs/gaits.md)."""
     n = len(cfg.gait.gaits[gait])
-    extra = n * cfg.gait.transfer_time if is_crawl(cfg, gait) else 0.0
-    return (n - 1) * swing_time + extra
+    return (n - 1) * swing_time + n * gait_transfer_time(cfg, gait)
 
 
 def stance_time_error(cfg: Config, gait: str, swing_time: float, stance_time: float

@@ -1,24 +1,50 @@
-"""The walk's terrain-adaptive touch-down: the foot contacts and the gait slots in, the planned
-foot targets with each leg's vertical offset out (`motion.foothold`; pure: no rclpy)."""
+"""The walk's rough-ground adaptation: the foot contacts and the gait slots in, the planned foot
+targets out, each foot offset along z by its leg's touch-down (`motion.foothold`), a swing
+that hits an obstacle re-planned once (`motion.stumble`), the body's attitude and height
+following the footholds or an IMU (`motion.attitude`); pure: no rclpy."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from crawler_motion.errors import GaitError
 from crawler_motion.model.config import RobotConfig
 from crawler_motion.model.kinematics import inverse_kinematics
+from crawler_motion.motion.attitude import (
+    AttitudeMode,
+    AttitudeProfile,
+    AttitudeSettings,
+    apply_pose,
+    bounded,
+    stance_plane,
+)
 from crawler_motion.motion.contact_estimation import FootContact
 from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
-from crawler_motion.motion.foothold import FootholdAdapter, FootholdSettings
-from crawler_motion.motion.gait import Slot
+from crawler_motion.motion.foothold import FootholdAdapter, FootholdSettings, lowering_start
+from crawler_motion.motion.gait import Slot, check_trajectories
+from crawler_motion.motion.stumble import (
+    HitWatch,
+    Retry,
+    StumbleSettings,
+    lift_swing,
+    replan_swing,
+)
+from crawler_motion.motion.trajectory import Piecewise
 from crawler_motion.planner.contacts import ContactMonitor
 from crawler_motion.planner.context import JointTarget
+
+_NEUTRAL = (0.0, 0.0, 0.0)
 
 
 class Footholds:
     """Offsets of the feet of the walk in progress: swings registered per slot, contacts read
     from ``monitor`` (the planner's `ContactMonitor`; None or disabled: unknown, the blind
-    plan), ``failure`` set when a foot finds no ground (the walk then holds its pose).
+    plan), ``failure`` set when a foot finds no ground or hits an obstacle twice (the walk
+    then holds its pose, or ``failure_pose`` where one is given), ``replanned`` the slot's
+    track after a stumble's retry (used in place of the walk's from then on), the body pose
+    ``(z, roll, pitch)`` planned per slot (`motion.attitude`).
 
     The adapter runs on the walk's own clock: slot time plus the durations of the slots
     before, so a walk frozen mid-slot or held at a boundary resumes its offsets where it left
@@ -28,7 +54,17 @@ class Footholds:
         self.robot = robot
         self.adapter = FootholdAdapter(robot.legs, settings)
         self.monitor: ContactMonitor | None = None
+        self.stumble = StumbleSettings()
+        self.attitude = AttitudeSettings()
+        self.pose = AttitudeProfile()
+        self.hits = HitWatch(robot.n_legs)
         self.failure = ""
+        self.failure_pose: np.ndarray | None = None  # the pose [rad] a failure holds
+        self.replanned: Track | None = None
+        self._slot: Slot | None = None
+        self._legs: list[Piecewise] = []  # the current slot's leg trajectories
+        self._slot_time = 0.0  # slot time [s] of the last `targets`
+        self._tilt = [0.0, 0.0, 0]  # IMU: sums of measured minus commanded roll, pitch; count
         self._end: np.ndarray | None = None  # the joint pose [rad] the last walk ended in
         self._base = 0.0  # walk clock at the current slot's start [s]
         self._previous: float | None = None  # duration of the slot before [s]
@@ -38,46 +74,95 @@ class Footholds:
         """The adapter's settings."""
         return self.adapter.settings
 
-    def configure(self, settings: FootholdSettings) -> None:
-        """New settings; disabling stops new events (held offsets blend out as they swing)."""
+    def configure(self, settings: FootholdSettings, stumble: StumbleSettings | None = None,
+                  attitude: AttitudeSettings | None = None) -> None:
+        """New settings; disabling stops new events (held offsets blend out as they swing,
+        the attitude levels out over the next slot)."""
         self.adapter.configure(settings)
+        self.stumble = stumble or self.stumble
+        self.attitude = attitude or self.attitude
+
+    def measure_attitude(self, roll: float, pitch: float) -> None:
+        """An IMU's roll and pitch of the body [rad] (gravity-referenced, REP-103), taken now
+        (averaged over a slot for the ``imu`` attitude mode)."""
+        pose = self.pose.evaluate(self._base + self._slot_time)[0] if self._slot else _NEUTRAL
+        self._tilt[0] += roll - pose[1]
+        self._tilt[1] += pitch - pose[2]
+        self._tilt[2] += 1
 
     def start(self, hold: JointTarget | None) -> None:
-        """A walk starts from ``hold``: the offsets the last walk ended with are kept if it
-        is still the pose that walk ended in (its first swings blend them out), else 0."""
-        self.failure = ""
+        """A walk starts from ``hold``: the offsets and the body pose the last walk ended with
+        are kept if it is still the pose that walk ended in (its first swings blend them
+        out), else 0."""
+        self.failure, self.failure_pose = "", None
         if hold is None or self._end is None or not np.array_equal(hold.positions, self._end):
             self.adapter.reset()
+            self.pose.reset()
         else:
             self.adapter.reset(self.adapter.held().tolist())
+            self.pose.reset(self.pose.target)
         self._end = None
         self._base, self._previous = 0.0, None
+        self._tilt = [0.0, 0.0, 0]
 
     def begin_slot(self, slot: Slot) -> None:
         """``slot`` starts (it follows the last one on the walk's clock): its swinging legs
-        lift from their footholds."""
+        lift from their footholds, the body heads for its new pose."""
         if self._previous is not None:
             self._base += self._previous
         self._previous = slot.duration
+        self._slot, self._legs, self.replanned = slot, list(slot.legs), None
+        self.hits.clear()
+        held = self.adapter.held()  # the footholds, before the swinging legs leave theirs
         if slot.swing_time > 0.0:
             for i in slot.group:
                 self.adapter.begin_swing(i, slot.legs[i], self._base, slot.swing_time)
+                self.hits.begin(i, lowering_start(slot.legs[i], slot.swing_time))
+        self._plan_pose(slot, held)
 
-    def _estimate(self) -> tuple[tuple[FootContact, ...] | None, list[float] | None]:
+    def _plan_pose(self, slot: Slot, held: np.ndarray) -> None:
+        """The body pose at the end of ``slot`` from the footholds' offsets ``held`` [m] (see
+        `motion.attitude`)."""
+        mode = self.attitude.mode
+        if mode is AttitudeMode.OFF or not self.settings.enabled:
+            self.pose.plan(self._base, slot.duration, _NEUTRAL)
+            return
+        xy = np.array([leg.evaluate(0.0)[0][0, :2] for leg in slot.legs])
+        plane = stance_plane(xy, held)
+        target = list(plane if plane is not None else self.pose.target)
+        tilt, self._tilt = self._tilt, [0.0, 0.0, 0]
+        if mode is AttitudeMode.IMU and tilt[2]:  # cancel the plan frame's mean tilt
+            target[1], target[2] = -tilt[0] / tilt[2], -tilt[1] / tilt[2]
+        self.pose.plan(self._base, slot.duration, bounded(target, self.attitude))
+
+    def _estimate(self) -> tuple[tuple[FootContact, ...] | None, list[float] | None,
+                                 list[float] | None]:
+        """Contact states, normal forces and horizontal forces [N] (base_link), or Nones
+        (unknown)."""
         last = None if self.monitor is None else self.monitor.last
         if last is None or not self.settings.enabled:
-            return None, None
-        return last.states, last.normal_forces.tolist()
+            return None, None, None
+        return (last.states, last.normal_forces.tolist(),
+                [math.hypot(fx, fy) for fx, fy, _ in last.forces.tolist()])
 
     def targets(self, track: Track, kin: FastKinematics, now: float, t0: float
                 ) -> tuple[list[float], list[float]]:
         """Joint angles [rad] and rates [rad/s] at planner time ``now`` [s] of the slot
-        ``track`` started at ``t0`` [s], each foot offset along z by its leg's offset."""
-        clock = self._base + (now - t0)
-        states, forces = self._estimate()
-        if states is None and self.adapter.quiet(clock):  # the blind plan, at its cost
-            return joint_targets(track, kin, now - t0)
-        pos, vel = track.evaluate(now - t0)
+        ``track`` started at ``t0`` [s], each foot offset along z by its leg's offset, the
+        body at its planned pose."""
+        self._slot_time = t = now - t0
+        clock = self._base + t
+        if self.replanned is not None:  # a stumble's retry replaced the slot's track
+            track = self.replanned
+        states, forces, totals = self._estimate()
+        if states is None and self.adapter.quiet(clock) and self.pose.quiet():
+            return joint_targets(track, kin, t)  # the blind plan, at its cost
+        pos, vel = track.evaluate(t)
+        if states is not None and totals is not None and self.stumble.enabled:
+            retried = self._stumbles(track, t, states, totals, pos)
+            if retried is not track:
+                track = retried
+                pos, vel = track.evaluate(t)
         z, zd = pos[2::3], vel[2::3]
         failure = self.adapter.update(clock, z, states, forces)
         if failure is not None and not self.failure:
@@ -86,13 +171,74 @@ class Footholds:
         for i, (d, dd) in enumerate(zip(delta, rate, strict=True)):
             pos[3 * i + 2] += d
             vel[3 * i + 2] += dd
+        pose, pose_rate = self.pose.evaluate(clock)
+        if pose != _NEUTRAL or pose_rate != _NEUTRAL:
+            apply_pose(pos, vel, pose, pose_rate)
         return kin.solve(pos, vel)
 
+    def _stumbles(self, track: Track, t: float, states: tuple[FootContact, ...],
+                  totals: list[float], planned: list[float]) -> Track:
+        """Hits at slot time ``t`` [s] (``planned`` the feet of ``track`` then [m]): a first
+        one re-plans the swing (``replanned``), a second one (or one that cannot be retried)
+        sets ``failure``; the track to use."""
+        touching = [s is FootContact.YES for s in states]
+        for i in self.hits.update(t, touching, totals, self.stumble.force, planned[2::3]):
+            where = planned[3 * i:3 * i + 3]
+            place = (f"at x {where[0]:+.3f}, y {where[1]:+.3f}, z {where[2]:+.3f} m in "
+                     f"base_link, {t:.2f} s into its swing")
+            leg = self.robot.legs[i].upper()
+            if self.hits.retried[i]:
+                self._fail(f"leg {leg} hit an obstacle again after lifting "
+                           f"{self.stumble.lift * 1e3:.0f} mm higher, {place}")
+                continue
+            retry, why = self._retry(i, t)
+            if retry is None:
+                self._fail(f"leg {leg} hit an obstacle {place}; {why}")
+                continue
+            legs = list(self._legs)
+            legs[i] = retry.plan
+            self._legs = legs
+            track = self.replanned = Track(legs)
+            self.adapter.replan_swing(i, retry.plan, retry.t_lower)
+            self.hits.retry(i, retry, where[2])
+        return track
+
+    def _retry(self, i: int, t: float) -> tuple[Retry | None, str]:
+        """Leg ``i``'s swing re-planned from slot time ``t`` [s]: the retry with the stop and
+        retreat, else the vertical-only one (`motion.stumble`), the first whose samples keep
+        the joint limits; or None and why neither does."""
+        assert self._slot is not None
+        why = "too late in its swing to lift higher"
+        for make in (replan_swing, lift_swing):
+            retry = make(self._legs[i], self._slot.swing_time, t, self.stumble)
+            if retry is None:
+                continue
+            legs = list(self._legs)
+            legs[i] = retry.plan
+            try:
+                check_trajectories(self.robot, legs, "its retried swing")
+            except GaitError as exc:
+                why = str(exc)
+                continue
+            return retry, ""
+        return None, why
+
+    def _fail(self, why: str) -> None:
+        """A stumble ends the walk: hold the measured pose (the last target would go on
+        pushing what the foot hit), or the last target before a measurement."""
+        if not self.failure:
+            self.failure = why
+            self.failure_pose = None if self.monitor is None else self.monitor.estimator.angles
+
     def end_pose(self, track: Track) -> np.ndarray:
-        """The joint pose [rad] at the end of ``track``, the feet at their footholds (kept:
-        a walk started from it keeps them)."""
+        """The joint pose [rad] at the end of ``track``, the feet at their footholds, the body
+        at its pose (kept: a walk started from it keeps them)."""
+        if self.replanned is not None:
+            track = self.replanned
         pos, _ = track.evaluate(track.t_end)
-        feet = np.reshape(pos, (-1, 3)).copy()
-        feet[:, 2] += self.adapter.held()
-        self._end = inverse_kinematics(self.robot, feet)
+        pos = list(pos)
+        for i, d in enumerate(self.adapter.held()):
+            pos[3 * i + 2] += float(d)
+        apply_pose(pos, [0.0] * len(pos), self.pose.target, _NEUTRAL)
+        self._end = inverse_kinematics(self.robot, np.reshape(pos, (-1, 3)))
         return self._end.copy()

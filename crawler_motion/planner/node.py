@@ -2,7 +2,8 @@
 
 Subscribes ``cmd_vel`` (geometry_msgs/Twist; linear.x, linear.y, angular.z used),
 ``gait_command`` (std_msgs/String, one JSON object, see `commands.parse_gait_command`),
-``joint_states`` (sensor_msgs/JointState, measured) and ``/diagnostics``
+``joint_states`` (sensor_msgs/JointState, measured; composed with the driver, handed over
+by it: `measured_input`) and ``/diagnostics``
 (diagnostic_msgs/DiagnosticArray: a status whose hardware_id is ``fault_hardware_id`` at level
 ERROR pauses the planner until every such status is OK or WARN again; STALE and other robots'
 statuses change nothing: `runtime.diagnostic_names`) and ``driver_status`` (std_msgs/String
@@ -56,6 +57,7 @@ from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.planner.contact_topics import ContactTopics
 from crawler_motion.planner.core import JointTarget, PlannerCore
 from crawler_motion.planner.driver_view import parse_driver_status, rate_problem
+from crawler_motion.planner.measured_input import MeasuredInput
 from crawler_motion.planner.parameters import (
     CALIBRATION_SPEC,
     PlannerSettings,
@@ -65,7 +67,7 @@ from crawler_motion.planner.parameters import (
 )
 from crawler_motion.planner.planning_thread import AheadPlanner
 from crawler_motion.runtime.diagnostic_names import same_robot
-from crawler_motion.runtime.log import Severity, log
+from crawler_motion.runtime.log import Severity, Throttle, log
 from crawler_motion.runtime.parameters import ParamSpec
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
@@ -96,24 +98,6 @@ def _level(value: Any) -> int:
 def _severity(level: str) -> Severity:
     """The `Severity` of a core event level (``info``, ``warn`` or ``error``)."""
     return Severity.WARNING if level == "warn" else Severity(level)
-
-
-class RepeatFilter:
-    """Lets one message through at most once per ``period`` [s] (monotonic time)."""
-
-    def __init__(self, period: float) -> None:
-        self.period = period
-        self._last: dict[str, float] = {}
-
-    def admit(self, message: str, now: float) -> bool:
-        """True if ``message`` was not let through during the last ``period``."""
-        last = self._last.get(message)
-        if last is not None and now - last < self.period:
-            return False
-        if len(self._last) >= LOG_REPEAT_MEMORY:
-            self._last.clear()
-        self._last[message] = now
-        return True
 
 
 class FaultLevels:
@@ -163,10 +147,11 @@ class PlannerNode(Node):
         self.core = PlannerCore(self.cfg, settings.rate, defaults=settings.defaults,
                                 cmd_vel_timeout=settings.cmd_vel_timeout)
         self.core.contacts.configure(settings.contacts)
-        self.core.walk.foothold.configure(settings.foothold)
+        self.core.walk.foothold.configure(settings.foothold, settings.stumble,
+                                          settings.attitude)
         self._settings = settings
         self._faults = FaultLevels()
-        self._repeats = RepeatFilter(LOG_REPEAT_PERIOD)
+        self._repeats = Throttle(LOG_REPEAT_PERIOD, max_keys=LOG_REPEAT_MEMORY)
         self._status_revision = -1
         self._status_key: tuple[Any, ...] = ()
         self._status_at = -float("inf")
@@ -178,7 +163,7 @@ class PlannerNode(Node):
         self.on_target: Callable[[JointTarget, Time], None] | None = None
         self._create_interfaces()
         self._ahead = AheadPlanner(self.core, self._lock, self._report_failure)
-        self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._ahead.wake,
+        self._ticker = Ticker(1.0 / settings.rate, self._on_tick, self._after_tick,
                               name="planner-ticker", priority=priority)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._after_set_parameters)
@@ -194,6 +179,7 @@ class PlannerNode(Node):
         """Stop the ticker and planning threads, then destroy the node."""
         self._ticker.stop(timeout=THREAD_JOIN_TIMEOUT)
         self._ahead.stop(THREAD_JOIN_TIMEOUT)
+        self.measured.close()
         super().destroy_node()
 
     # ----------------------------------------------------------------- set-up
@@ -217,8 +203,7 @@ class PlannerNode(Node):
         self._pub_status = self.create_publisher(String, "planner_status", status_qos)
         self.create_subscription(Twist, "cmd_vel", self._on_twist, qos_profile_sensor_data)
         self.create_subscription(String, "gait_command", self._on_gait_command, 10)
-        self.create_subscription(JointState, "joint_states", self._on_joint_states,
-                                 qos_profile_sensor_data)
+        self.measured = MeasuredInput(self, self._on_joint_states)  # or the driver, composed
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.create_subscription(String, "driver_status", self._on_driver_status, status_qos)
         self._contact_topics = ContactTopics(self, self.core.contacts)
@@ -263,7 +248,8 @@ class PlannerNode(Node):
             self.core.set_defaults(settings.defaults)
             self.core.set_cmd_vel_timeout(settings.cmd_vel_timeout)
             self.core.contacts.configure(settings.contacts)
-            self.core.walk.foothold.configure(settings.foothold)
+            self.core.walk.foothold.configure(settings.foothold, settings.stumble,
+                                              settings.attitude)
             self.core.set_rate(settings.rate)
             if settings.rate != self._settings.rate:
                 self._ticker.period = 1.0 / settings.rate
@@ -347,6 +333,14 @@ class PlannerNode(Node):
         except Exception as exc:  # the ticker must outlive one bad tick
             self._report_failure(f"tick failed: {type(exc).__name__}: {exc}")
 
+    def _after_tick(self, now: float) -> None:
+        """Ticker thread, after each tick: the measured states handed over, the ahead planner."""
+        try:
+            self.measured.take_handed()
+        except Exception as exc:  # the ticker must outlive one bad state
+            self._report_failure(f"joint state failed: {type(exc).__name__}: {exc}")
+        self._ahead.wake(now)
+
     def _report_failure(self, message: str) -> None:
         """Log a failure of the ticker or planning thread (unless shutting down)."""
         if self.context.ok():
@@ -379,7 +373,7 @@ class PlannerNode(Node):
 
     def _log(self, severity: Severity, message: str) -> None:
         """Log ``message``; a warning or error repeated within `LOG_REPEAT_PERIOD` is not."""
-        if severity is Severity.INFO or self._repeats.admit(message, time.monotonic()):
+        if severity is Severity.INFO or self._repeats.allow(message):
             log(self.get_logger(), severity, message)
 
 

@@ -13,9 +13,11 @@ from typing import Any
 
 from crawler_motion.errors import CommandError, ConfigError, GaitError
 from crawler_motion.model.config import Config
+from crawler_motion.motion.attitude import AttitudeMode, AttitudeSettings
 from crawler_motion.motion.contact_estimation import ContactSettings
 from crawler_motion.motion.foothold import FootholdSettings
 from crawler_motion.motion.gait import WalkParams, validate_params
+from crawler_motion.motion.stumble import StumbleSettings
 from crawler_motion.motion.walk_options import WALK_OPTIONS, OptionType, WalkOption
 from crawler_motion.runtime.parameters import ParamSpec, validate_parameters
 
@@ -43,6 +45,8 @@ class PlannerSettings:
     defaults: WalkParams  # gait defaults; body_height resolved
     contacts: ContactSettings = field(default_factory=ContactSettings)  # foot contacts
     foothold: FootholdSettings = field(default_factory=FootholdSettings)  # touch-down
+    stumble: StumbleSettings = field(default_factory=StumbleSettings)  # swing hits
+    attitude: AttitudeSettings = field(default_factory=AttitudeSettings)  # body attitude
 
 
 def _config_file_check(value: str) -> str | None:
@@ -101,6 +105,28 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("foothold_touch_force", FootholdSettings.touch_force, "normal force an early "
               "contact needs in 2 estimates in a row [N] (a swinging leg's own dynamics reach "
               "contact_threshold)", minimum=0.0, maximum=100.0, unit="N"),
+    ParamSpec("stumble_retry", StumbleSettings.enabled, "with foothold_adapt: a swinging foot "
+              "that hits an obstacle before lowering is lifted higher and retried once, a "
+              "second hit holds the walk (docs/seabed.md, rough seabed)"),
+    ParamSpec("stumble_force", StumbleSettings.force, "horizontal ground force on a swinging "
+              "foot that makes a hit, in 2 contact estimates in a row [N] (a swing's own "
+              "dynamics reach about 7 N)", minimum=0.0, maximum=100.0, unit="N"),
+    ParamSpec("stumble_lift", StumbleSettings.lift, "a retried swing passes this much above "
+              "the rest of its planned swing [m]", minimum=0.0, maximum=0.05, unit="m"),
+    ParamSpec("stumble_retreat", StumbleSettings.retreat, "a retried foot first backs off this "
+              "far along its swing [m]", minimum=0.0, maximum=0.03, unit="m"),
+    ParamSpec("stumble_lift_time", StumbleSettings.lift_time, "longest duration of a retry's "
+              "rise and of its lowering [s]", minimum=0.05, maximum=1.0, unit="s"),
+    ParamSpec("stumble_stop_time", StumbleSettings.stop_time, "duration of a hit foot's smooth "
+              "stop before the retry [s]", minimum=0.005, maximum=0.5, unit="s"),
+    ParamSpec("attitude_mode", AttitudeSettings.mode.value, "with foothold_adapt: the body's "
+              "roll, pitch and height during a walk: stance_plane (follow the plane of the "
+              "footholds), imu (level it from an IMU's attitude), off (the plan's)",
+              choices=tuple(m.value for m in AttitudeMode)),
+    ParamSpec("attitude_max_tilt", AttitudeSettings.max_tilt, "largest |roll| and |pitch| the "
+              "attitude commands [rad]", minimum=0.0, maximum=0.5, unit="rad"),
+    ParamSpec("attitude_max_lift", AttitudeSettings.max_lift, "largest body lift or lowering "
+              "the attitude commands [m]", minimum=0.0, maximum=0.05, unit="m"),
 )
 
 
@@ -157,10 +183,19 @@ def planner_settings(specs: Sequence[ParamSpec], values: Mapping[str, Any], cfg:
                                     float(values["foothold_search_depth"]),
                                     float(values["foothold_search_speed"]),
                                     float(values["foothold_touch_force"]))
+        stumble = StumbleSettings(bool(values["stumble_retry"]), float(values["stumble_force"]),
+                                  float(values["stumble_lift"]),
+                                  float(values["stumble_retreat"]),
+                                  float(values["stumble_lift_time"]),
+                                  float(values["stumble_stop_time"]))
+        attitude = AttitudeSettings(AttitudeMode(values["attitude_mode"]),
+                                    float(values["attitude_max_tilt"]),
+                                    float(values["attitude_max_lift"]))
     except ConfigError as exc:
         raise CommandError(str(exc)) from exc
     return PlannerSettings(config_file=values[CONFIG_FILE], rate=float(values["rate"]),
                            cmd_vel_timeout=float(values["cmd_vel_timeout"]),
                            fault_hardware_id=values["fault_hardware_id"],
                            tick_priority=values["tick_priority"], defaults=params,
-                           contacts=contacts, foothold=foothold)
+                           contacts=contacts, foothold=foothold, stumble=stumble,
+                           attitude=attitude)

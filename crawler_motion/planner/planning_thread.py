@@ -7,6 +7,11 @@ from collections.abc import Callable
 
 from crawler_motion.planner.core import PlannerCore
 
+#: The thread looks for a slot to plan at most this often [s] (steady time of the ticks): the
+#: next slot is planned within this long after `next_slot.PLAN_AHEAD_HORIZON` (0.2 s) before its
+#: boundary, and a 500 Hz ticker does not wake the thread (and hand it the GIL) at every tick.
+AHEAD_POLL_PERIOD = 0.01
+
 
 class AheadPlanner:
     """The planning thread: plans the next slot before its boundary without holding the
@@ -21,6 +26,8 @@ class AheadPlanner:
         self._lock = lock
         self._report = report
         self._now = 0.0
+        self._polled = -float("inf")  # steady time of the last wake-up [s]
+        self.wakes = 0  # wake-ups so far
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="planner-ahead", daemon=True)
@@ -30,8 +37,13 @@ class AheadPlanner:
         self._thread.start()
 
     def wake(self, now: float) -> None:
-        """Ticker thread, right after a tick: plan ahead of ``now`` (costs nothing)."""
+        """Ticker thread, right after a tick at steady time ``now`` [s]: plan ahead of it, at
+        most every `AHEAD_POLL_PERIOD` (costs nothing)."""
+        if now - self._polled < AHEAD_POLL_PERIOD:
+            return
+        self._polled = now
         self._now = now
+        self.wakes += 1
         self._wake.set()
 
     def stop(self, timeout: float) -> None:

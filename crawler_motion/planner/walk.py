@@ -238,8 +238,8 @@ class WalkController:
             return ctx.hold
         target = JointTarget(np.array(q), np.array(qd))
         ctx.last_target = target
-        if self.foothold.failure:  # no foot keeps descending: hold this pose
-            self.enter_holding(now, self.foothold.failure)
+        if self.foothold.failure:  # no ground under a foot, or a second hit: hold
+            self.enter_holding(now, self.foothold.failure, self.foothold.failure_pose)
             return ctx.hold
         return target
 

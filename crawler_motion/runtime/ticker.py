@@ -11,7 +11,11 @@ until absolute deadlines ``t0 + k * period`` on ``time.monotonic`` and never dri
   ``missed``, never run in a burst: a late joint command is worse than none).
 
 ``idle`` (optional) runs right after a tick, in the same thread, so it delays the next tick
-by its own duration: keep it short (the planner only wakes its planning thread there).
+by its own duration: keep it short (the planner wakes its planning thread there and, composed
+with the driver, takes the measured joint states handed over since the last tick).
+
+The thread's timer slack is `TIMER_SLACK_NS` (Linux): the kernel may otherwise wake a sleeping
+thread of normal priority up to 50 µs after its deadline, to batch wake-ups.
 
 ``priority`` 1..99 runs the thread under SCHED_FIFO (Linux; needs CAP_SYS_NICE or an rtprio
 limit), as real-time controllers do: the thread then preempts ordinary processes when its
@@ -21,6 +25,7 @@ deadline comes. If it cannot be set, the ticker runs at normal priority and says
 
 from __future__ import annotations
 
+import ctypes
 import math
 import os
 import threading
@@ -29,6 +34,19 @@ from collections.abc import Callable
 
 #: Largest allowed tick rate [Hz] (a sanity bound, not a performance claim).
 MAX_RATE_HZ = 10_000.0
+#: Timer slack of the ticker thread [ns] (Linux default 50,000; 0 would mean "the default").
+TIMER_SLACK_NS = 1_000
+#: ``PR_SET_TIMERSLACK`` of Linux's prctl(2).
+PR_SET_TIMERSLACK = 29
+
+
+def set_timer_slack(nanoseconds: int) -> bool:
+    """Set the calling thread's timer slack [ns] (Linux prctl); False where it cannot be."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(PR_SET_TIMERSLACK, ctypes.c_ulong(nanoseconds), 0, 0, 0) == 0
+    except (OSError, AttributeError):  # not Linux / no prctl
+        return False
 
 
 def check_priority(priority: int) -> int:
@@ -153,6 +171,7 @@ class Ticker:
         return self._thread.is_alive()
 
     def _run(self) -> None:
+        set_timer_slack(TIMER_SLACK_NS)
         if self._priority > 0:
             problem = _set_fifo(0, self._priority)
             if problem:

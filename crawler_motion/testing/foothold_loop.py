@@ -20,11 +20,13 @@ import numpy as np
 
 from crawler_motion.model.config import Config
 from crawler_motion.model.rotations import quaternion_matrix
+from crawler_motion.motion.attitude import AttitudeMode, AttitudeSettings
 from crawler_motion.motion.foothold import FootholdSettings
 from crawler_motion.motion.gait import WalkParams, iter_walk
+from crawler_motion.motion.stumble import StumbleSettings
 from crawler_motion.planner.commands import WALK_KEYS
 from crawler_motion.planner.core import PlannerCore
-from crawler_motion.sim.seabed.model import SeabedModel, SimSettings
+from crawler_motion.sim.seabed.model import IMU_SENSORS, SeabedModel, SimSettings
 from crawler_motion.testing.lockstep import LockStep
 
 CONTROL_PERIOD = 0.01  # [s]
@@ -42,6 +44,7 @@ class WalkRecord:
     position: list[np.ndarray] = field(default_factory=list)
     pitch: list[float] = field(default_factory=list)
     roll: list[float] = field(default_factory=list)
+    yaw: list[float] = field(default_factory=list)
     torque: list[np.ndarray] = field(default_factory=list)  # |tau| / limit per joint
 
     @property
@@ -58,6 +61,16 @@ class WalkRecord:
     def max_pitch(self) -> float:
         """Largest |pitch| of the body [rad]."""
         return float(np.max(np.abs(self.pitch)))
+
+    @property
+    def max_roll(self) -> float:
+        """Largest |roll| of the body [rad]."""
+        return float(np.max(np.abs(self.roll)))
+
+    @property
+    def yaw_change(self) -> float:
+        """The body's yaw change over the walk [rad]."""
+        return float(self.yaw[-1] - self.yaw[0])
 
     @property
     def max_torque(self) -> float:
@@ -90,15 +103,19 @@ class FootholdLoop(LockStep):
     """One robot in one world, walking a number of steps with the planner core."""
 
     def __init__(self, cfg: Config, world: str, foothold: FootholdSettings | None = None,
-                 start: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
-        """``start``: x, y [m], yaw [rad] of the body in the world."""
+                 start: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 stumble: StumbleSettings | None = None,
+                 attitude: AttitudeSettings | None = None) -> None:
+        """``start``: x, y [m], yaw [rad] of the body in the world; ``stumble`` and
+        ``attitude`` default to the planner's defaults. With the ``imu`` attitude mode the
+        planner gets the body's simulated roll and pitch every tick (the IMU's orientation)."""
         self.cfg = cfg
         self.robot = cfg.robot
         self.sm = SeabedModel(cfg.robot, SimSettings(start_pose=start), world)
         self.data = self.sm.make_data()
         self.sm.settle(self.data, 0.3)
         self.core = PlannerCore(cfg, 1.0 / CONTROL_PERIOD)
-        self.core.walk.foothold.configure(foothold or FootholdSettings())
+        self.core.walk.foothold.configure(foothold or FootholdSettings(), stumble, attitude)
         self.limit = np.tile(np.broadcast_to(self.robot.effort, (3,)), self.robot.n_legs)
         self.t = 0.0
         self.tau = np.zeros(3 * self.robot.n_legs)
@@ -117,6 +134,10 @@ class FootholdLoop(LockStep):
         q = self.joints()
         self.core.set_measured(q, self.t)
         self.core.contacts.update(self.robot.joint_names, q, self.tau, self.t, self.t)
+        footholds = self.core.walk.foothold
+        if footholds.attitude.mode is AttitudeMode.IMU:
+            roll, pitch, _ = self.attitude(self.data.sensor(IMU_SENSORS[2]).data)
+            footholds.measure_attitude(roll, pitch)
         target = self.core.tick(self.t)
         if target is not None:
             self.data.ctrl[:] = target.positions
@@ -142,10 +163,19 @@ class FootholdLoop(LockStep):
         rec.events = [f"{level}: {message}" for level, message in self.core.pop_events()]
         return rec
 
+    def attitude(self, quaternion: np.ndarray | None = None) -> tuple[float, float, float]:
+        """Roll, pitch, yaw [rad] (fixed-axis, REP-103) of ``quaternion`` (w, x, y, z; default
+        the body's orientation in the world)."""
+        rot = quaternion_matrix(self.data.qpos[3:7] if quaternion is None else quaternion)
+        return (math.atan2(float(rot[2, 1]), float(rot[2, 2])),
+                math.asin(-max(-1.0, min(1.0, float(rot[2, 0])))),
+                math.atan2(float(rot[1, 0]), float(rot[0, 0])))
+
     def _record(self, rec: WalkRecord) -> None:
-        rot = quaternion_matrix(self.data.qpos[3:7])
+        roll, pitch, yaw = self.attitude()
         rec.time.append(self.t)
         rec.position.append(self.data.qpos[:3].copy())
-        rec.pitch.append(math.asin(-max(-1.0, min(1.0, float(rot[2, 0])))))
-        rec.roll.append(math.atan2(float(rot[2, 1]), float(rot[2, 2])))
+        rec.pitch.append(pitch)
+        rec.roll.append(roll)
+        rec.yaw.append(yaw)
         rec.torque.append(np.abs(self.tau) / self.limit)

@@ -587,3 +587,25 @@ def test_sender_of_each_family(proto):
             ("not a frame", None)]
     for msg, side in rows:
         assert proto.sender(msg) == side, msg
+
+
+@pytest.mark.parametrize(("range_text", "enabled", "refused"), [
+    ("[0|1]", False, False), ("[0|1]", True, False), ("[1|1]", True, False),
+    ("[1|1]", False, True)])
+def test_a_flag_narrower_than_its_bit_is_range_checked(robot, tmp_path, range_text, enabled,
+                                                       refused):
+    """Signals whose bits cannot leave their range skip the check; a narrower range keeps it:
+    Axis0_Enabled = 0 is refused when the DBC allows [1|1] only."""
+    text = config_path("motor_manager.dbc").read_text(encoding="utf-8")
+    old = 'SG_ Axis0_Enabled : 0|1@1+ (1,0) [0|1] "" Controller'
+    assert old in text
+    path = tmp_path / "mm.dbc"
+    path.write_text(text.replace(old, old.replace("[0|1]", range_text)), encoding="utf-8")
+    shipped = MotorProtocol.from_config(robot)
+    proto = build(robot, config_path("axes.yaml"), path)
+    frame = shipped.encode_status([AxisFlags(enabled=enabled)] * 12, 1)[0]
+    if refused:
+        with pytest.raises(ProtocolError, match=r"Axis0_Enabled = 0 is outside its range"):
+            proto.decode(frame)
+    else:
+        assert proto.decode(frame).axes[0].enabled is enabled

@@ -18,6 +18,7 @@ from crawler_motion.controller.node import (
     LOCAL_SEQUENCE_BASE,
     OWN_STAMPS,
     DirectLink,
+    link_measured,
 )
 from crawler_motion.driver.senders import MAX_SEQUENCE_GAP, SenderWatch
 from crawler_motion.planner.context import JointTarget
@@ -79,3 +80,36 @@ def test_a_publisher_racing_the_hand_over_is_a_conflict_for_the_sender_watch() -
     assert not watch.note(3, 0.05)  # a DDS publisher appears: a new stream
     assert watch.note(LOCAL_SEQUENCE_BASE + 5, 0.06)  # and the two interleave
     assert LOCAL_SEQUENCE_BASE > MAX_SEQUENCE_GAP * 1e6
+
+
+class Measured:
+    """The planner's `MeasuredInput`: records the composition and what is handed over."""
+
+    def __init__(self) -> None:
+        self.own: Any = None
+        self.handed: list[JointState] = []
+
+    def compose(self, own_state: Any) -> None:
+        self.own = own_state
+
+    def hand_over(self, msg: JointState) -> None:
+        self.handed.append(msg)
+
+
+def _state(nanosec: int) -> JointState:
+    msg = JointState()
+    msg.header.stamp = Time(sec=9, nanosec=nanosec)
+    return msg
+
+
+def test_each_joint_state_published_goes_to_the_planner_which_skips_it_on_the_topic() -> None:
+    driver = SimpleNamespace(on_joint_state=None)
+    planner = SimpleNamespace(measured=Measured())
+    link_measured(driver, planner)  # type: ignore[arg-type]
+    sent = [_state(n) for n in range(OWN_STAMPS + 1)]
+    for msg in sent:
+        driver.on_joint_state(msg)
+    assert planner.measured.handed == sent
+    own = planner.measured.own
+    assert own(_state(OWN_STAMPS)) and not own(_state(0))  # the oldest is forgotten
+    assert not own(_state(OWN_STAMPS + 5))  # another publisher's

@@ -194,6 +194,10 @@ BAD = [
     ("profile as number", {"gait.profiles.smooth": 0.5}, ["gait.profiles.smooth"]),
     ("v_b as text", {"gait.profiles.smooth.v_b": "fast"}, ["gait.profiles.smooth.v_b"]),
     ("negative v_d", {"gait.profiles.smooth.v_d": -1.0}, ["gait.profiles.smooth", "v_d"]),
+    ("negative transfer", {"gait.gaits.diagonal.transfer_time": -0.1},
+     ["gait.gaits.diagonal.transfer_time", ">= 0"]),
+    ("transfer as text", {"gait.gaits.wave.transfer_time": "long"},
+     ["gait.gaits.wave.transfer_time"]),
     ("unknown gait", {"gait.gait": "gallop"}, ["gait.gait", "gallop", "diagonal"]),
     ("unknown profile", {"gait.profile": "jerky"}, ["gait.profile", "jerky", "smooth"]),
     # NaN and infinity
@@ -295,6 +299,8 @@ GOOD = [
                         "robot.hips.lf": [0, 1, 0]}),
     ("no legs list: default order", {"robot.legs": DELETE}),
     ("three groups", {GROUPS: [["rf"], ["lb"], ["lf", "rb"]]}),
+    ("a diagonal transfer", {"gait.gaits.diagonal.transfer_time": 0.3}),
+    ("no diagonal transfer", {"gait.gaits.diagonal.transfer_time": 0.0}),
 ]
 
 
@@ -311,6 +317,8 @@ def test_valid_variants_load(changes, tmp_path):
         np.testing.assert_array_equal(cfg.robot.knee_sign, [1, 1, -1, 1])
     if GROUPS in changes:
         assert cfg.gait.gaits["diagonal"] == (("rf",), ("lb",), ("lf", "rb"))
+    key = "gait.gaits.diagonal.transfer_time"
+    assert cfg.gait.transfers == ({"diagonal": changes[key]} if key in changes else {})
 
 
 def test_the_body_pose_limits_load():

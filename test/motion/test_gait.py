@@ -32,10 +32,11 @@ from crawler_motion.motion.gait import (
     iter_walk,
     plan_walk,
     standing_pose,
+    transfer_rate,
     validate_params,
 )
 from crawler_motion.motion.trajectory import Piecewise
-from crawler_motion.motion.walk_options import stance_time_range, sways
+from crawler_motion.motion.walk_options import MIN_TRANSFER_TIME, stance_time_range, sways
 
 CFG = load_config()
 ROBOT = CFG.robot
@@ -104,7 +105,7 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     if crawl:
         kinds.insert(0, "start")
         assert slots[0].group == () and slots[0].swing_time == 0.0
-        assert slots[0].duration == pytest.approx(slot_time - v.swing_time, rel=1e-12)
+        assert slots[0].duration >= MIN_TRANSFER_TIME - 1e-12
     assert [s.kind for s in slots] == kinds
     stand = ROBOT.standing_feet(v.body_height)
     ground = stand[:, 2]
@@ -121,8 +122,15 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     for a, b in pairwise(slots):
         np.testing.assert_array_equal(a.offsets_end, b.offsets_start)
     for s in slots[1:] if crawl else slots:
-        assert s.duration == pytest.approx(slot_time, rel=1e-12)
         assert s.swing_time == v.swing_time
+        if crawl:  # transfers sized to the body's travel in them (GaitSequencer._timed) ...
+            assert s.duration >= v.swing_time + MIN_TRANSFER_TIME - 1e-12
+        else:
+            assert s.duration == pytest.approx(slot_time, rel=1e-12)
+    if crawl:  # ... so that a steady cycle lasts as long as with equal transfers
+        steady = [s.duration for s in slots if s.kind == "steady"]
+        for k in range(0, len(steady), n):
+            assert sum(steady[k:k + n]) == pytest.approx(n * slot_time, rel=1e-9)
     total = sum(s.duration for s in slots)
 
     for part in ("legs", "contacts"):  # the foot centres (IK targets) and the contact points
@@ -373,6 +381,42 @@ def test_wave_walk_is_statically_stable_throughout(overrides):
 def test_wave_swing_order_follows_the_direction_of_travel(heading, first_four):
     slots = list(iter_walk(CFG, params(gait="wave", heading=heading), 1))
     assert [LEGS[s.group[0]] for s in slots[1:5]] == first_four
+
+
+@pytest.mark.parametrize(("turn", "order"), [
+    (0.2, ["lb", "rb", "rf", "lf"]),  # round the body counter-clockwise, as it turns
+    (-0.2, ["lb", "lf", "rf", "rb"]),  # clockwise
+])
+def test_a_crawl_turning_on_the_spot_swings_round_the_body_in_the_sense_of_the_turn(turn, order):
+    # The table order made every transfer sway the body 26-51 mm across a support diagonal
+    # (slip 10 mm per stance in water); this one, twice per cycle 13 mm.
+    slots = list(iter_walk(CFG, params(gait="wave", stride=0.0, turn=turn), 1))
+    assert [LEGS[s.group[0]] for s in slots[1:5]] == order
+
+
+def test_a_crawl_gives_its_transfers_time_by_the_body_travel_in_them():
+    # Walking forward, the transfer after a front leg's swing carries the body 38 mm across a
+    # support diagonal, the one after a hind leg's 2 mm: equal transfers of 0.3 s asked the
+    # friction for 2.4 m/s² of body acceleration in the first (slip 5 mm per stance).
+    slots = list(iter_walk(CFG, params(gait="wave"), 2))
+    transfer = {LEGS[s.group[0]]: s.duration - s.swing_time for s in slots if s.kind == "steady"}
+    assert transfer["lf"] == pytest.approx(transfer["rf"], rel=1e-9)
+    assert transfer["lb"] == pytest.approx(transfer["rb"], rel=1e-9)
+    assert transfer["lf"] > 3 * transfer["lb"] > 3 * MIN_TRANSFER_TIME
+    assert sum(transfer.values()) == pytest.approx(4 * GAIT.transfer_time, rel=1e-9)
+
+
+@pytest.mark.parametrize(("weights", "total", "expected"), [
+    ([1.0, 1.0], 0.6, [0.3, 0.3]),  # equal travel: equal transfers
+    ([1.0, 3.0], 0.8, [0.2, 0.6]),
+    ([0.01, 1.0], 0.6, [MIN_TRANSFER_TIME, 0.6 - MIN_TRANSFER_TIME]),  # the floor, the rest
+    ([0.5, 1.0], 2 * MIN_TRANSFER_TIME, [MIN_TRANSFER_TIME, MIN_TRANSFER_TIME]),  # both floor
+])
+def test_transfer_rate_shares_the_total_by_weight(weights, total, expected):
+    rate = transfer_rate(weights, total)
+    got = [max(MIN_TRANSFER_TIME, rate * w) for w in weights]
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    assert sum(got) == pytest.approx(total, abs=1e-12)
 
 
 def test_a_margin_the_support_cannot_give_is_refused_with_the_reason():

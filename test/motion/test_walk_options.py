@@ -3,22 +3,26 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
 from crawler_motion.model.config import load_config
 from crawler_motion.motion.walk_options import (
+    MIN_TRANSFER_TIME,
     OPTIONS,
     POSE_OPTIONS,
     WALK_OPTIONS,
     OptionType,
     Sign,
     clearance_error,
+    default_stance_time,
     field_ranges,
     options_of,
     pose_height_error,
     stance_time_error,
     stance_time_range,
+    sways,
 )
 
 CFG = load_config()
@@ -138,3 +142,17 @@ def test_stance_time_rule(gait, swing, stance, refused):
     if refused:
         assert f"the {gait} gait" in problem
         assert f"needs stance_time in [{lo:g}, {hi:g}] s" in problem
+
+
+@pytest.mark.parametrize(("transfers", "gait", "stance", "swaying"), [
+    ({}, "diagonal", 0.6, False),  # shipped: the diagonal gait has no transfer (it rocks)
+    ({}, "wave", 3.0, True),  # a crawl: 3 x 0.6 s + 4 x transfer_time 0.3 s
+    ({"diagonal": 0.3}, "diagonal", 1.2, True),  # its table's own: its default walk sways
+    ({"diagonal": MIN_TRANSFER_TIME}, "diagonal", 0.7, True),
+    ({"diagonal": 0.04}, "diagonal", 0.68, False),  # below the shortest transfer: no sway
+    ({"wave": 0.2}, "wave", 2.6, True),
+])
+def test_default_stance_time_adds_the_gaits_transfers(transfers, gait, stance, swaying):
+    cfg = replace(CFG, gait=replace(CFG.gait, transfers=transfers))
+    assert default_stance_time(cfg, gait, 0.6) == pytest.approx(stance, abs=1e-12)
+    assert sways(cfg, gait, 0.6, default_stance_time(cfg, gait, 0.6)) is swaying

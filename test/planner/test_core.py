@@ -217,11 +217,12 @@ def test_walk_n_steps_returns_to_standing(gait, steps):
         clock.tick()
         seen.append(clock.core.status()["step"])
         assert clock.t - t0 < 60
-    transfer = CFG.gait.transfer_time if gait == "wave" else 0.0  # a crawl sways its body
-    slot = 0.6 + transfer  # (swing + stance) / n with stance = (n - 1) x swing + n x transfer
-    # ... and before its first lift-off the crawl sways over its first support (one transfer)
-    assert clock.targets[-1][0] - t0 == pytest.approx(
-        (2 * (n - 1) + steps * n) * slot + transfer, abs=1.5 * DT)
+    if gait == "diagonal":  # (swing + stance) / n per slot, stance = (n - 1) x swing
+        duration = (2 * (n - 1) + steps * n) * 0.6
+    else:  # a crawl sways its body in transfers sized to its travel (the plan's durations)
+        duration = plan_walk(CFG, WalkParams.defaults(CFG.gait, gait=gait, turn=0.1,
+                                                      heading=0.4), steps).duration
+    assert clock.targets[-1][0] - t0 == pytest.approx(duration, abs=1.5 * DT)
     assert seen == sorted(seen) and seen[-1] == steps and set(seen) == set(range(steps + 1))
     assert clock.core.status()["steps"] == steps
     feet = forward_kinematics(ROBOT, positions(clock)[-1].reshape(4, 3))

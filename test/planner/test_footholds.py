@@ -3,15 +3,19 @@ and the walk's end out."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from crawler_motion.model.config import load_config
 from crawler_motion.model.kinematics import forward_kinematics
+from crawler_motion.motion.attitude import AttitudeSettings
 from crawler_motion.motion.contact_estimation import ContactEstimate, FootContact
 from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
 from crawler_motion.motion.foothold import FootholdSettings, Mode
 from crawler_motion.motion.gait import WalkParams, plan_walk, standing_pose
+from crawler_motion.motion.stumble import StumbleSettings
 from crawler_motion.planner.contacts import ContactMonitor
 from crawler_motion.planner.core import PlannerCore
 from crawler_motion.planner.footholds import Footholds
@@ -110,3 +114,101 @@ def test_the_offsets_run_on_the_walk_clock_through_a_freeze() -> None:
     np.testing.assert_allclose(runs[0], runs[1], atol=1e-12)
     blind = np.array([joint_targets(track, kin, k * DT)[0] for k in range(60)])
     assert np.abs(runs[0] - blind).max() > 1e-3  # the early contacts did move the feet
+
+
+def _hit_walk(core: PlannerCore, t: float, hit_from: float, hit_until: float,
+              limit: float = 10.0) -> tuple[list[np.ndarray], float]:
+    """A 1-step walk whose first swinging leg touches something with 20 N from slot time
+    ``hit_from`` to ``hit_until`` [s] of its swing (off the ground before); the feet out."""
+    core.submit('{"command": "walk", "steps": 1}', t)
+    footholds = core.walk.foothold
+    n = ROBOT.n_legs
+    first: tuple[int, ...] | None = None
+    feet = []
+    end = t + limit
+    while t < end and core.state not in (STANDING, HOLDING):
+        slot = footholds._slot
+        states = [FootContact.YES] * n
+        force = np.zeros((n, 3))
+        force[:, 2] = 5.0
+        if slot is not None and slot.swing_time > 0.0:
+            first = first or slot.group
+            s = t - core.walk.slot_t0
+            for i in slot.group:
+                states[i] = FootContact.NO
+                if slot.group == first and hit_from <= s < hit_until:
+                    states[i] = FootContact.YES
+                    force[i] = (20.0, 0.0, 0.0)  # a face ahead of the foot
+        core.contacts.last = ContactEstimate(t, tuple(states), force[:, 2].copy(), force)
+        target = core.tick(t)
+        assert target is not None
+        feet.append(forward_kinematics(ROBOT, target.positions.reshape(-1, 3)))
+        t = round(t + DT, 9)
+    return feet, t
+
+
+def test_a_swinging_foot_that_hits_once_is_lifted_higher_and_lands_as_planned() -> None:
+    core, t = _standing()
+    core.walk.foothold.configure(FootholdSettings(enabled=True))
+    feet, _ = _hit_walk(core, t, 0.2, 0.22)
+    assert core.state == STANDING, core.pop_events()
+    z = np.array(feet)[:, :, 2]
+    other = _standing()
+    other[0].walk.foothold.configure(FootholdSettings(enabled=True))
+    unhit, _ = _hit_walk(*other, 1.0, 1.0)  # the same contacts without the hit
+    lift = core.walk.foothold.stumble.lift
+    assert z.max() == pytest.approx(np.array(unhit)[:, :, 2].max() + lift, abs=1e-3)
+    assert len(feet) == len(unhit)
+    np.testing.assert_allclose(feet[-1], unhit[-1], atol=1e-9)  # the same footholds
+    steps = np.diff(np.array(feet), axis=0)
+    assert np.abs(np.diff(steps, axis=0)).max() < 5e-3  # no jump of the targets [m/tick]
+
+
+def test_a_foot_that_hits_again_after_the_retry_holds_the_walk_with_leg_and_place() -> None:
+    core, t = _standing()
+    core.walk.foothold.configure(FootholdSettings(enabled=True))
+    _hit_walk(core, t, 0.2, 1.0)
+    assert core.state == HOLDING
+    events = " ".join(message for _, message in core.pop_events())
+    assert "hit an obstacle again after lifting 15 mm higher, at x" in events
+    assert "send stand (or sit) to recover" in events
+
+
+def test_a_hit_is_ignored_without_stumble_retry() -> None:
+    core, t = _standing()
+    core.walk.foothold.configure(FootholdSettings(enabled=True), StumbleSettings(enabled=False))
+    feet, _ = _hit_walk(core, t, 0.2, 0.22)
+    blind, _ = _walk(*_standing(), None)
+    assert core.state == STANDING
+    assert np.array(feet)[:, :, 2].max() == pytest.approx(np.array(blind)[:, :, 2].max(),
+                                                           abs=1e-4)  # not lifted 15 mm
+
+
+@pytest.mark.parametrize(("enabled", "mode", "tilted"), [
+    (True, "stance_plane", True),  # front feet 1 cm up
+    (True, "imu", True),  # no IMU reading: the plane's
+    (True, "off", False),
+    (False, "stance_plane", False),  # the blind plan
+])
+def test_the_body_heads_for_the_plane_of_the_footholds(enabled: bool, mode: str,
+                                                       tilted: bool) -> None:
+    slot = plan_walk(CFG, WalkParams.defaults(CFG.gait), 2).slots[1]
+    x = np.array([leg.evaluate(0.0)[0][0, 0] for leg in slot.legs])
+    expected = (0.004, 0.0, -math.atan(0.05)) if tilted else (0.0, 0.0, 0.0)
+    footholds = Footholds(ROBOT)
+    footholds.configure(FootholdSettings(enabled=enabled), None, AttitudeSettings(mode=mode))
+    footholds.adapter.reset((0.004 + 0.05 * x).tolist())  # on a plane rising 5 % ahead
+    footholds.begin_slot(slot)
+    assert footholds.pose.target == pytest.approx(expected, abs=1e-12)
+    assert footholds.pose.evaluate(slot.duration)[0] == footholds.pose.target
+
+
+def test_imu_levelling_cancels_the_mean_measured_tilt() -> None:
+    slots = plan_walk(CFG, WalkParams.defaults(CFG.gait), 2).slots
+    footholds = Footholds(ROBOT)
+    footholds.configure(FootholdSettings(enabled=True), None, AttitudeSettings(mode="imu"))
+    footholds.begin_slot(slots[0])
+    for roll, pitch in ((0.01, 0.03), (0.03, 0.05)):  # the body tilted by 0.02, 0.04 rad
+        footholds.measure_attitude(roll, pitch)
+    footholds.begin_slot(slots[1])
+    assert footholds.pose.target == pytest.approx((0.0, -0.02, -0.04))

@@ -8,8 +8,10 @@ import pytest
 
 from crawler_motion.errors import CommandError
 from crawler_motion.model.config import load_config
+from crawler_motion.motion.attitude import AttitudeMode, AttitudeSettings
 from crawler_motion.motion.foothold import FootholdSettings
 from crawler_motion.motion.gait import WalkParams, validate_params
+from crawler_motion.motion.stumble import StumbleSettings
 from crawler_motion.planner.parameters import (
     default_values,
     planner_parameters,
@@ -31,9 +33,11 @@ def test_parameter_names_defaults_and_flags():
         "config_file", "calibration_file", "rate", "cmd_vel_timeout", "fault_hardware_id",
         "tick_priority", "contact_threshold", "contact_hysteresis", "contact_drive_inertia",
         "contact_period", "foothold_adapt", "foothold_tolerance", "foothold_stop_time",
-        "foothold_search_depth", "foothold_search_speed", "foothold_touch_force", "gait",
-        "profile", "stride", "lift", "arc", "swing_time", "stance_profile", "margin",
-        "body_height"]
+        "foothold_search_depth", "foothold_search_speed", "foothold_touch_force",
+        "stumble_retry", "stumble_force", "stumble_lift", "stumble_retreat",
+        "stumble_lift_time", "stumble_stop_time", "attitude_mode", "attitude_max_tilt",
+        "attitude_max_lift", "gait", "profile", "stride", "lift", "arc", "swing_time",
+        "stance_profile", "margin", "body_height"]
     assert {name for name, spec in BY_NAME.items() if spec.read_only} == {
         "config_file", "calibration_file", "tick_priority"}
     assert default_values(SPECS) == {
@@ -42,7 +46,10 @@ def test_parameter_names_defaults_and_flags():
         "contact_hysteresis": 0.5, "contact_drive_inertia": 0.005, "contact_period": 0.01,
         "foothold_adapt": False, "foothold_tolerance": 0.006, "foothold_stop_time": 0.04,
         "foothold_search_depth": 0.02, "foothold_search_speed": 0.02,
-        "foothold_touch_force": 2.0, "gait": G.gait,
+        "foothold_touch_force": 2.0, "stumble_retry": True, "stumble_force": 10.0,
+        "stumble_lift": 0.015, "stumble_retreat": 0.0, "stumble_lift_time": 0.12,
+        "stumble_stop_time": 0.04, "attitude_mode": "off", "attitude_max_tilt": 0.15,
+        "attitude_max_lift": 0.02, "gait": G.gait,
         "profile": G.profile, "stride": G.stride, "lift": G.lift, "arc": G.arc,
         "swing_time": G.swing_time, "stance_profile": G.stance_profile,
         "margin": G.stability_margin,
@@ -52,6 +59,7 @@ def test_parameter_names_defaults_and_flags():
         "default standing body height (stand without body_height) [m]")
     assert BY_NAME["gait"].choices == ("diagonal", "wave")
     assert BY_NAME["profile"].choices == ("rest", "smooth")
+    assert BY_NAME["attitude_mode"].choices == ("stance_plane", "imu", "off")
 
 
 @pytest.mark.parametrize(("name", "lo", "hi"), [
@@ -95,6 +103,10 @@ def test_parameters_defaults_valid():
     ({"foothold_tolerance": -0.001}, "foothold_tolerance must be within [0, 0.05] m"),
     ({"foothold_search_depth": 0.11}, "foothold_search_depth must be within [0, 0.1] m"),
     ({"foothold_adapt": 1}, "foothold_adapt must be a bool, got 1"),
+    ({"stumble_force": 100.5}, "stumble_force must be within [0, 100] N"),
+    ({"stumble_lift_time": 0.049}, "stumble_lift_time must be within [0.05, 1] s"),
+    ({"attitude_mode": "level"}, "attitude_mode must be one of ['stance_plane', 'imu', 'off']"),
+    ({"attitude_max_tilt": 0.51}, "attitude_max_tilt must be within [0, 0.5] rad"),
 ])
 def test_parameters_refused(change, fragment):
     values = default_values(SPECS) | change
@@ -123,3 +135,11 @@ def test_parameters_boundaries_accepted():
     edge = settings(default_values(SPECS) | {"foothold_adapt": True, "foothold_search_depth": 0.1,
                                              "foothold_stop_time": 0.005})
     assert edge.foothold == FootholdSettings(enabled=True, search_depth=0.1, stop_time=0.005)
+    rough = settings(default_values(SPECS) | {
+        "stumble_retry": False, "stumble_force": 0.0, "stumble_lift": 0.05,
+        "stumble_retreat": 0.03, "stumble_lift_time": 1.0, "stumble_stop_time": 0.005,
+        "attitude_mode": "imu", "attitude_max_tilt": 0.5, "attitude_max_lift": 0.0})
+    assert rough.stumble == StumbleSettings(False, 0.0, 0.05, 0.03, 1.0, 0.005)
+    assert rough.attitude == AttitudeSettings(AttitudeMode.IMU, 0.5, 0.0)
+    assert settings(default_values(SPECS)).stumble == StumbleSettings()
+    assert settings(default_values(SPECS)).attitude == AttitudeSettings()

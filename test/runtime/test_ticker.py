@@ -2,13 +2,20 @@
 
 from __future__ import annotations
 
+import ctypes
 import os
 import threading
 import time
 
 import pytest
 
-from crawler_motion.runtime.ticker import MAX_RATE_HZ, Ticker, catch_up, check_priority
+from crawler_motion.runtime.ticker import (
+    MAX_RATE_HZ,
+    TIMER_SLACK_NS,
+    Ticker,
+    catch_up,
+    check_priority,
+)
 
 P = 0.01
 
@@ -142,3 +149,32 @@ def test_a_priority_is_set_in_the_thread_or_the_reason_is_given():
     else:
         assert set(policies) == {os.SCHED_FIFO}
     assert os.sched_getscheduler(0) == os.SCHED_OTHER  # only the tick thread
+
+
+def _timer_slack() -> int:
+    """The calling thread's timer slack [ns] (prctl PR_GET_TIMERSLACK); -1 where unknown."""
+    try:
+        return int(ctypes.CDLL(None).prctl(30, 0, 0, 0, 0))
+    except (OSError, AttributeError):
+        return -1
+
+
+def test_the_ticker_thread_sleeps_with_a_short_timer_slack():
+    """Linux: the ticker's thread has TIMER_SLACK_NS, the caller's thread keeps its own."""
+    before = _timer_slack()
+    if before < 0:
+        pytest.skip("no prctl(PR_GET_TIMERSLACK) here (not Linux)")
+    seen: list[int] = []
+
+    def tick(_now: float) -> None:
+        if not seen:
+            seen.append(_timer_slack())
+
+    ticker = Ticker(0.001, tick)
+    ticker.start()
+    deadline = time.monotonic() + 5.0
+    while not seen and time.monotonic() < deadline:
+        time.sleep(0.01)
+    ticker.stop()
+    assert seen == [TIMER_SLACK_NS]
+    assert _timer_slack() == before != TIMER_SLACK_NS
