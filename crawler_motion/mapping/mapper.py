@@ -2,16 +2,30 @@
 
 `TerrainMapper.add_odometry` keeps the body poses of the last ``odom_window`` seconds;
 `TerrainMapper.add_scan` takes a scan (points in scanner_link and its stamp), finds the body
-pose at its stamp (the nearest odometry sample, at most ``pose_tolerance`` away), transforms
-the returns into the odom frame with their height variances, and fuses them. A scan that
-cannot be used is skipped and its `SkipReason` counted; non-finite points of a usable scan are
-left out and counted too. The map never holds NaN.
+pose at its stamp, transforms the returns into the odom frame with their height variances, and
+fuses them. The pose at a scan's stamp ``t`` (as tf2's message filter, on stamps only: the
+core has no clock), with ``tol`` = ``pose_tolerance``:
+
+- ``t`` within the odometry kept (oldest <= t <= newest): interpolated between the two samples
+  bracketing ``t`` (position linear, rotation slerp); at a sample's stamp, that sample. When
+  the two are more than ``2 tol`` apart (a gap in the odometry) the scan is skipped
+  (``ODOMETRY_GAP``): the pose is never taken from a sample more than ``tol`` away from both
+  sides.
+- ``newest < t <= newest + tol``: the scan is held (`ScanFate.HELD`, at most ``scan_queue``
+  scans; one more drops the oldest held, counted ``QUEUE_FULL``) until an odometry sample at
+  or after ``t`` arrives; `add_odometry` then fuses it by the rule above.
+- ``t > newest + tol`` (the odometry is later than the tolerance allows):
+  ``AHEAD_OF_ODOMETRY``; ``t < oldest``: ``STALE``; no odometry yet: ``NO_ODOMETRY``.
+
+Every scan given to `add_scan` ends fused (`scans_fused`), skipped (its `SkipReason` counted in
+`skipped`) or still held (`held`). Non-finite points of a usable scan are left out and counted
+too. The map never holds NaN.
 """
 
 from __future__ import annotations
 
 import math
-from bisect import bisect_left
+from bisect import bisect_left, insort
 from collections import Counter, deque
 from dataclasses import dataclass, field
 from enum import Enum
@@ -21,6 +35,14 @@ import numpy as np
 from crawler_motion.mapping.grid import ElevationGrid, FuseResult
 from crawler_motion.mapping.obstacles import obstacle_cells, occupancy
 from crawler_motion.mapping.points import Mount, NoiseModel, returns_in_map
+from crawler_motion.model.rotations import slerp_rotation
+
+
+class ScanFate(Enum):
+    """What `TerrainMapper.add_scan` did with a usable scan."""
+
+    FUSED = "fused"
+    HELD = "held until an odometry sample at or after its stamp arrives"
 
 
 class SkipReason(Enum):
@@ -32,6 +54,8 @@ class SkipReason(Enum):
     NO_ODOMETRY = "no odometry yet"
     STALE = "scan older than the odometry window"
     AHEAD_OF_ODOMETRY = "scan newer than the latest odometry by more than the tolerance"
+    ODOMETRY_GAP = "the odometry samples around the scan are more than 2 tolerances apart"
+    QUEUE_FULL = "held scan dropped: more than scan_queue scans waiting for odometry"
     BAD_POSE = "odometry pose not finite"
     MALFORMED = "not an x y z float32 cloud in the scanner frame"
 
@@ -50,6 +74,7 @@ class MapperSettings:
     ground_radius: float = 0.25  # [m]
     odom_window: float = 1.0  # [s]
     pose_tolerance: float = 0.05  # [s]
+    scan_queue: int = 4  # scans held for odometry at most
 
     @property
     def cells(self) -> int:
@@ -66,6 +91,24 @@ class Pose:
     position: np.ndarray
 
 
+def interpolate_pose(before: Pose, after: Pose, stamp: float) -> Pose:
+    """The pose at ``stamp`` [s] between two samples (``before.stamp <= stamp <= after.stamp``):
+    position linear, rotation slerp; at either stamp that sample itself."""
+    if stamp == before.stamp or after.stamp == before.stamp:
+        return before
+    if stamp == after.stamp:
+        return after
+    f = (stamp - before.stamp) / (after.stamp - before.stamp)
+    return Pose(stamp, slerp_rotation(before.rotation, after.rotation, f),
+                before.position + f * (after.position - before.position))
+
+
+@dataclass(frozen=True)
+class _HeldScan:
+    stamp: float
+    points: np.ndarray
+
+
 class TerrainMapper:
     """Elevation grid fed by scans and odometry; obstacle cells on request."""
 
@@ -77,6 +120,7 @@ class TerrainMapper:
         self.scans_fused = 0
         self.last_fuse: FuseResult | None = None
         self._poses: deque[Pose] = deque()
+        self._held: list[_HeldScan] = []  # ordered by stamp
         self._last_position: np.ndarray | None = None
 
     @property
@@ -84,8 +128,14 @@ class TerrainMapper:
         """The newest odometry sample."""
         return self._poses[-1] if self._poses else None
 
+    @property
+    def held(self) -> int:
+        """Scans waiting for an odometry sample at or after their stamp."""
+        return len(self._held)
+
     def add_odometry(self, pose: Pose) -> SkipReason | None:
-        """Keep a body pose (stamps must increase; an older one is refused as STALE)."""
+        """Keep a body pose (stamps must increase; an older one is refused as STALE) and fuse
+        the held scans it reaches (stamp <= its stamp), or skip them with their reason."""
         if not (np.all(np.isfinite(pose.rotation)) and np.all(np.isfinite(pose.position))
                 and math.isfinite(pose.stamp)):
             self.skipped[SkipReason.BAD_POSE] += 1
@@ -100,24 +150,32 @@ class TerrainMapper:
             self.grid.grow(float(np.linalg.norm(pose.position[:2] - self._last_position[:2])))
         self._last_position = pose.position
         self.grid.follow(float(pose.position[0]), float(pose.position[1]))
+        while self._held and self._held[0].stamp <= pose.stamp:
+            scan = self._held.pop(0)
+            self._fuse(scan.points, scan.stamp)
         return None
 
     def pose_at(self, stamp: float) -> Pose | SkipReason:
-        """The odometry sample nearest ``stamp`` [s], or why there is none."""
+        """The body pose at ``stamp`` [s], interpolated between the odometry samples around it
+        (the rule of the module docstring), or why there is none yet or at all."""
         if not self._poses:
             return SkipReason.NO_ODOMETRY
-        tol = self.settings.pose_tolerance
-        if stamp < self._poses[0].stamp - tol:
+        if stamp < self._poses[0].stamp:
             return SkipReason.STALE
-        if stamp > self._poses[-1].stamp + tol:
+        if stamp > self._poses[-1].stamp:
             return SkipReason.AHEAD_OF_ODOMETRY
-        stamps = [p.stamp for p in self._poses]
-        i = bisect_left(stamps, stamp)
-        near = [j for j in (i - 1, i) if 0 <= j < len(stamps)]
-        return self._poses[min(near, key=lambda j: abs(stamps[j] - stamp))]
+        i = bisect_left(self._poses, stamp, key=lambda p: p.stamp)  # poses[i].stamp >= stamp
+        after = self._poses[i]
+        if after.stamp == stamp:
+            return after
+        before = self._poses[i - 1]
+        if after.stamp - before.stamp > 2.0 * self.settings.pose_tolerance:
+            return SkipReason.ODOMETRY_GAP
+        return interpolate_pose(before, after, stamp)
 
-    def add_scan(self, points: np.ndarray, stamp: float) -> SkipReason | None:
-        """Fuse one scan (``(k, 3)`` scanner_link [m], stamp [s]); the reason when skipped."""
+    def add_scan(self, points: np.ndarray, stamp: float) -> ScanFate | SkipReason:
+        """Fuse one scan (``(k, 3)`` scanner_link [m], stamp [s]) now, hold it for the odometry
+        at its stamp, or skip it: the fate, or the reason when skipped."""
         pts = np.asarray(points, dtype=float).reshape(-1, 3)
         if len(pts) == 0:
             return self._skip(SkipReason.EMPTY)
@@ -127,6 +185,21 @@ class TerrainMapper:
             pts = pts[finite]
             if len(pts) == 0:
                 return self._skip(SkipReason.ALL_NON_FINITE)
+        newest = self.latest_pose
+        if newest is None or stamp <= newest.stamp:
+            return self._fuse(pts, stamp)
+        if stamp > newest.stamp + self.settings.pose_tolerance:
+            return self._skip(SkipReason.AHEAD_OF_ODOMETRY)
+        scan = _HeldScan(stamp, pts)
+        insort(self._held, scan, key=lambda h: h.stamp)
+        if len(self._held) > self.settings.scan_queue:  # drop the oldest held (maybe this one)
+            dropped = self._held.pop(0)
+            self._skip(SkipReason.QUEUE_FULL)
+            if dropped is scan:
+                return SkipReason.QUEUE_FULL
+        return ScanFate.HELD
+
+    def _fuse(self, pts: np.ndarray, stamp: float) -> ScanFate | SkipReason:
         pose = self.pose_at(stamp)
         if isinstance(pose, SkipReason):
             return self._skip(pose)
@@ -134,7 +207,7 @@ class TerrainMapper:
                                   self.settings.noise)
         self.last_fuse = self.grid.fuse(p_m, var)
         self.scans_fused += 1
-        return None
+        return ScanFate.FUSED
 
     def _skip(self, reason: SkipReason) -> SkipReason:
         self.skipped[reason] += 1

@@ -4,13 +4,16 @@ Subscribes ``scan`` (sensor_msgs/PointCloud2 in the scanner frame, float32 x y z
 (nav_msgs/Odometry); publishes at ``publish_rate`` ``terrain_map`` (nav_msgs/OccupancyGrid in
 the map frame: 100 obstacle, 0 free, -1 unknown) and ``terrain_heights``
 (sensor_msgs/PointCloud2 in the map frame: one point per known cell centre, fields x y z
-variance float32, z the fused height [m], variance [m²]). A skipped scan is counted by reason
-and logged (at most once a second per reason). All the work is in `mapper.TerrainMapper`.
+variance float32, z the fused height [m], variance [m²]). A scan newer than the latest odometry
+is held until the odometry reaches its stamp (`mapper` has the rule). A skipped scan (when it
+arrives, or a held one later) is counted by reason and logged (at most once a second per
+reason). All the work is in `mapper.TerrainMapper`.
 """
 
 from __future__ import annotations
 
 import sys
+from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
@@ -88,10 +91,13 @@ class TerrainMapperNode(Node):
             rot = quaternion_matrix(np.array([q.w, q.x, q.y, q.z]))
         except ValueError:
             rot = np.full((3, 3), np.nan)
+        before = Counter(self.mapper.skipped)
         reason = self.mapper.add_odometry(Pose(stamp_seconds(msg.header.stamp), rot,
                                                np.array([p.x, p.y, p.z])))
         if reason is not None:
             self.get_logger().warning(f"odom skipped: {reason.value}", throttle_duration_sec=1.0)
+        else:  # held scans it released and could not fuse
+            self._report(before)
 
     def _on_scan(self, msg: PointCloud2) -> None:
         points = read_xyz(msg)
@@ -99,12 +105,15 @@ class TerrainMapperNode(Node):
             self.mapper.skipped[SkipReason.MALFORMED] += 1
             self._skip(SkipReason.MALFORMED)
             return
-        before = self.mapper.skipped[SkipReason.NON_FINITE_POINTS]
-        reason = self.mapper.add_scan(points, stamp_seconds(msg.header.stamp))
-        if reason is not None:
-            self._skip(reason)
-        elif self.mapper.skipped[SkipReason.NON_FINITE_POINTS] > before:
-            self._skip(SkipReason.NON_FINITE_POINTS)
+        before = Counter(self.mapper.skipped)
+        self.mapper.add_scan(points, stamp_seconds(msg.header.stamp))
+        self._report(before)
+
+    def _report(self, before: Counter[SkipReason]) -> None:
+        """Log every reason counted since ``before``."""
+        for reason, count in self.mapper.skipped.items():
+            if count > before[reason]:
+                self._skip(reason)
 
     def _publish(self) -> None:
         stamp = self.get_clock().now().to_msg()

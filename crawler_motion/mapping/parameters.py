@@ -37,8 +37,8 @@ def mapper_parameters(cfg: Config) -> tuple[ParamSpec, ...]:
                   "per metre of range [m/m]", read_only=True, minimum=0.0, maximum=1.0,
                   unit="m/m"),
         ParamSpec("attitude_noise", 0.02, "body roll and pitch noise, standard deviation "
-                  "[rad] (includes the attitude change between a scan and its odometry "
-                  "sample)", read_only=True, minimum=0.0, maximum=1.0, unit="rad"),
+                  "[rad] (includes the attitude change in a scan's stamp error)", read_only=True,
+                  minimum=0.0, maximum=1.0, unit="rad"),
         ParamSpec("obstacle_height", step_threshold(cfg), "a cell higher than its local "
                   "ground by more is an obstacle [m] (default: min(lift + arc, belly "
                   "clearance) of robot.yaml)", read_only=True, minimum=0.001, maximum=1.0,
@@ -49,9 +49,13 @@ def mapper_parameters(cfg: Config) -> tuple[ParamSpec, ...]:
                   "this [m]", read_only=True, minimum=0.0, maximum=5.0, unit="m"),
         ParamSpec("odom_window", 1.0, "odometry kept; an older scan is skipped [s]",
                   read_only=True, minimum=0.05, maximum=60.0, unit="s"),
-        ParamSpec("pose_tolerance", 0.05, "largest stamp gap between a scan and the odometry "
-                  "sample used for it [s]", read_only=True, minimum=0.001, maximum=1.0,
-                  unit="s"),
+        ParamSpec("pose_tolerance", 0.05, "a scan newer than the latest odometry by up to this "
+                  "is held for the next sample, by more is skipped; a scan's pose is "
+                  "interpolated between samples at most twice this apart [s]", read_only=True,
+                  minimum=0.001, maximum=1.0, unit="s"),
+        ParamSpec("scan_queue", 4, "scans held for odometry at or after their stamp at most; "
+                  "one more drops the oldest held (counted)", read_only=True, minimum=0,
+                  maximum=100),
         ParamSpec("publish_rate", 10.0, "terrain_map and terrain_heights rate [Hz]",
                   read_only=True, minimum=0.1, maximum=50.0, unit="Hz"),
     )
@@ -69,4 +73,4 @@ def mapper_settings(specs: tuple[ParamSpec, ...], values: Mapping[str, Any]
                           drift=v["drift"], noise=noise, obstacle_height=v["obstacle_height"],
                           confidence=v["confidence"],
                           ground_radius=v["ground_radius"], odom_window=v["odom_window"],
-                          pose_tolerance=v["pose_tolerance"])
+                          pose_tolerance=v["pose_tolerance"], scan_queue=v["scan_queue"])

@@ -78,3 +78,39 @@ def roll_pitch(rotation: np.ndarray) -> tuple[float, float]:
 def yaw_of(rotation: np.ndarray) -> float:
     """Yaw [rad] of ``rotation`` (about z)."""
     return math.atan2(rotation[1, 0], rotation[0, 0])
+
+
+def matrix_quaternion(rotation: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z), ``w >= 0``, of a rotation matrix (the inverse of
+    `quaternion_matrix`; Shepperd's method: from the largest of w, x, y, z)."""
+    m = np.asarray(rotation, dtype=float)
+    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    k = int(np.argmax([tr, m[0, 0], m[1, 1], m[2, 2]]))
+    if k == 0:
+        s = 2.0 * math.sqrt(max(1.0 + tr, 0.0))
+        q = (s / 4, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s)
+    elif k == 1:
+        s = 2.0 * math.sqrt(max(1.0 + 2 * m[0, 0] - tr, 0.0))
+        q = ((m[2, 1] - m[1, 2]) / s, s / 4, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s)
+    elif k == 2:
+        s = 2.0 * math.sqrt(max(1.0 + 2 * m[1, 1] - tr, 0.0))
+        q = ((m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, s / 4, (m[1, 2] + m[2, 1]) / s)
+    else:
+        s = 2.0 * math.sqrt(max(1.0 + 2 * m[2, 2] - tr, 0.0))
+        q = ((m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, s / 4)
+    quat = np.array(q) / np.linalg.norm(q)
+    return -quat if quat[0] < 0 else quat
+
+
+def slerp_rotation(start: np.ndarray, end: np.ndarray, fraction: float) -> np.ndarray:
+    """Rotation matrix ``fraction`` (0..1) of the way from ``start`` to ``end`` along the
+    shorter great arc (quaternion slerp: constant angular rate about one axis)."""
+    q0, q1 = matrix_quaternion(start), matrix_quaternion(end)
+    dot = float(q0 @ q1)
+    if dot < 0.0:  # q and -q are the same rotation: take the shorter arc
+        q1, dot = -q1, -dot
+    angle = math.acos(min(dot, 1.0))
+    if angle < 1e-9:  # (nearly) the same rotation: linear is exact to rounding
+        return quaternion_matrix(q0 + fraction * (q1 - q0))
+    q = (math.sin((1.0 - fraction) * angle) * q0 + math.sin(fraction * angle) * q1)
+    return quaternion_matrix(q / math.sin(angle))

@@ -45,13 +45,16 @@ def mount() -> Mount:
 
 @pytest.fixture
 def scan_at(mount: Mount) -> Callable[..., np.ndarray]:
-    """Points in scanner_link seen from body position (x, y, z) with yaw 0, with range noise."""
+    """Points in scanner_link seen from body position (x, y, z) with yaw 0 (or the body
+    ``rotation`` base_link -> world), with range noise."""
     dirs = fan()
 
     def scan(body: tuple[float, float, float], boxes: list[Box], noise: float = 0.0,
-             rng: np.random.Generator | None = None) -> np.ndarray:
-        origin = np.array(body) + mount.position
-        world = dirs @ mount.rotation.T
+             rng: np.random.Generator | None = None, rotation: np.ndarray | None = None
+             ) -> np.ndarray:
+        body_rot = np.eye(3) if rotation is None else rotation
+        origin = np.array(body) + body_rot @ mount.position
+        world = dirs @ (body_rot @ mount.rotation).T
         t = cast(origin, world, boxes)
         keep = np.isfinite(t)
         r = t[keep]

@@ -7,7 +7,13 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from crawler_motion.mapping.mapper import MapperSettings, Pose, SkipReason, TerrainMapper
+from crawler_motion.mapping.mapper import (
+    MapperSettings,
+    Pose,
+    ScanFate,
+    SkipReason,
+    TerrainMapper,
+)
 from crawler_motion.mapping.obstacles import local_ground, step_threshold
 from crawler_motion.mapping.points import Mount
 from crawler_motion.model.config import load_config
@@ -23,7 +29,8 @@ def look(mapper: TerrainMapper, scan_at: Callable, xs: np.ndarray, boxes: list,
     for k, x in enumerate(xs):
         t = 0.1 * k
         mapper.add_odometry(Pose(t, np.eye(3), np.array([x, 0.0, BODY_Z])))
-        assert mapper.add_scan(scan_at((x, 0.0, BODY_Z), boxes, noise, rng), t) is None
+        fate = mapper.add_scan(scan_at((x, 0.0, BODY_Z), boxes, noise, rng), t)
+        assert fate is ScanFate.FUSED
 
 
 def footprint_iou(mapper: TerrainMapper, box: tuple) -> float:
@@ -95,7 +102,7 @@ def test_bad_scans_are_skipped_with_counted_reasons(mount: Mount) -> None:
     assert mapper.add_scan(good, 0.5) is SkipReason.STALE  # window is 1.0..2.0 s
     assert mapper.add_scan(good, 2.2) is SkipReason.AHEAD_OF_ODOMETRY
     mixed = np.vstack([good, [[np.inf, 0, 0], [np.nan, 1, 2]]])
-    assert mapper.add_scan(mixed, 1.96) is None
+    assert mapper.add_scan(mixed, 1.96) is ScanFate.FUSED
     assert mapper.add_odometry(Pose(1.0, np.eye(3), np.zeros(3))) is SkipReason.STALE
     bad_pose = Pose(3.0, np.full((3, 3), np.nan), np.zeros(3))
     assert mapper.add_odometry(bad_pose) is SkipReason.BAD_POSE

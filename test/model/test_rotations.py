@@ -10,11 +10,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from crawler_motion.model.rotations import (
+    matrix_quaternion,
     quaternion_matrix,
     roll_pitch,
     rpy_angular_acceleration,
     rpy_angular_velocity,
     rpy_matrix,
+    slerp_rotation,
     yaw_of,
 )
 
@@ -97,3 +99,28 @@ def test_quaternion_of_a_yaw_equals_the_yaw_matrix(yaw: float, scale: float) -> 
 def test_a_quaternion_without_direction_is_refused(q: tuple) -> None:
     with pytest.raises(ValueError, match="no direction"):
         quaternion_matrix(np.array(q))
+
+
+unit_quaternions = st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(
+    lambda q: np.linalg.norm(q) > 0.1)
+
+
+@given(unit_quaternions)
+def test_matrix_quaternion_inverts_quaternion_matrix(q: tuple) -> None:
+    rot = quaternion_matrix(np.array(q))
+    back = matrix_quaternion(rot)
+    assert back[0] >= 0.0 and np.linalg.norm(back) == pytest.approx(1.0)
+    np.testing.assert_allclose(quaternion_matrix(back), rot, atol=1e-12)
+
+
+@pytest.mark.parametrize("start, end, fraction, expected", [
+    (0.0, 1.0, 0.0, 0.0),  # the ends
+    (0.0, 1.0, 1.0, 1.0),
+    (0.0, 1.0, 0.25, 0.25),  # a quarter of the angle
+    (0.5, 0.5, 0.7, 0.5),  # the same rotation
+    (3.0, -3.0, 0.5, math.pi),  # the shorter arc, through 180° (not through 0)
+])
+def test_slerp_of_yaws_turns_at_a_constant_rate_along_the_shorter_arc(
+        start: float, end: float, fraction: float, expected: float) -> None:
+    np.testing.assert_allclose(slerp_rotation(_rz(start), _rz(end), fraction), _rz(expected),
+                               atol=1e-12)

@@ -23,6 +23,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, PointCloud2, PointField
 
@@ -162,7 +163,11 @@ class SeabedSimNode(Node):
         if scan is None:
             return
         msg = cloud_message(scan[1])
-        msg.header.stamp = self.get_clock().now().to_msg()
+        # stamped when it was taken: the physics runs in real time, so that is now minus the
+        # simulated time since (up to a poll period; the odometry's pose is the newest sample)
+        age = max(0.0, self.sim.plant.sample().time - scan[0])
+        msg.header.stamp = (self.get_clock().now() - Duration(nanoseconds=round(age * 1e9))
+                            ).to_msg()
         msg.header.frame_id = FRAME_SCANNER
         self._scan.publish(msg)
 
