@@ -1,4 +1,5 @@
-"""Checked values of a YAML configuration: numbers, positive numbers and sections.
+"""Checked values of a YAML configuration: numbers, numbers in a range, positive numbers and
+sections.
 
 Each check raises `ConfigError` naming the place (``what`` / ``where``) and the value found.
 """
@@ -19,6 +20,18 @@ def number(value: Any, what: str) -> float:
     if not math.isfinite(value):
         raise ConfigError(f"{what} must be finite, got {value!r}")
     return float(value)
+
+
+def number_in(value: Any, what: str, lo: float, hi: float, unit: str, *,
+              above: bool = False) -> float:
+    """``value`` as a finite float in [lo, hi] ((lo, hi] if ``above``); `ConfigError` naming
+    ``what``, the range with its ``unit`` and the value otherwise (bool is not a number)."""
+    x = float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
+        else math.nan
+    if not (math.isfinite(x) and (x > lo if above else x >= lo) and x <= hi):
+        raise ConfigError(f"{what} must be a number in {'(' if above else '['}{lo:g}, {hi:g}] "
+                          f"{unit}, got {value!r}")
+    return x
 
 
 def positive(value: Any, what: str) -> float:

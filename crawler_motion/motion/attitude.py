@@ -35,6 +35,7 @@ from enum import Enum
 import numpy as np
 
 from crawler_motion.errors import ConfigError
+from crawler_motion.model.yaml_values import number_in
 from crawler_motion.motion.body_pose import foot_state_at
 from crawler_motion.motion.foothold import rest
 
@@ -72,11 +73,7 @@ class AttitudeSettings:
                                   f"{[m.value for m in AttitudeMode]}, got {self.mode!r}"
                                   ) from None
         for name, hi, unit in (("max_tilt", 0.5, "rad"), ("max_lift", 0.05, "m")):
-            value = getattr(self, name)
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if not (ok and math.isfinite(value) and 0.0 <= value <= hi):
-                raise ConfigError(f"attitude {name} must be a number in [0, {hi:g}] {unit}, "
-                                  f"got {value!r}")
+            number_in(getattr(self, name), f"attitude {name}", 0.0, hi, unit)
 
 
 def stance_plane(xy: np.ndarray, delta: Sequence[float]) -> tuple[float, float, float] | None:

@@ -34,9 +34,9 @@ from enum import Enum
 
 import numpy as np
 
-from crawler_motion.errors import ConfigError
 from crawler_motion.model.config import RobotConfig
 from crawler_motion.model.kinematics import foot_jacobians
+from crawler_motion.model.yaml_values import number_in
 
 #: Samples more feedback periods apart than this start the history anew (a lost stream).
 MAX_GAP_PERIODS = 5
@@ -80,11 +80,7 @@ class ContactSettings:
 def _check(name: str, value: object, lo: float, hi: float, unit: str, *,
            above: bool = False) -> None:
     """`ConfigError` unless ``value`` is a finite number in [lo, hi] ((lo, hi] if ``above``)."""
-    x = float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
-        else math.nan
-    if not (math.isfinite(x) and (x > lo if above else x >= lo) and x <= hi):
-        raise ConfigError(f"contact {name} must be a number in {'(' if above else '['}{lo:g}, "
-                          f"{hi:g}] {unit}, got {value!r}")
+    number_in(value, f"contact {name}", lo, hi, unit, above=above)
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,6 @@ target is the planned one plus ``(0, 0, δ_i)`` and its velocity the planned one
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
@@ -32,6 +31,7 @@ from enum import Enum
 import numpy as np
 
 from crawler_motion.errors import ConfigError
+from crawler_motion.model.yaml_values import number_in
 from crawler_motion.motion.contact_estimation import FootContact
 from crawler_motion.motion.trajectory import Piecewise
 
@@ -66,11 +66,7 @@ class FootholdSettings:
                                    ("touch_force", 0.0, 100.0, "N"),
                                    ("search_depth", 0.0, 0.1, "m"),
                                    ("search_speed", 0.001, 1.0, "m/s")):
-            value = getattr(self, name)
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if not (ok and math.isfinite(value) and lo <= value <= hi):
-                raise ConfigError(f"foothold {name} must be a number in [{lo:g}, {hi:g}] "
-                                  f"{unit}, got {value!r}")
+            number_in(getattr(self, name), f"foothold {name}", lo, hi, unit)
         if not isinstance(self.enabled, bool):
             raise ConfigError(f"foothold enabled must be true or false, got {self.enabled!r}")
 

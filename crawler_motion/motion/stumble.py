@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from crawler_motion.errors import ConfigError
+from crawler_motion.model.yaml_values import number_in
 from crawler_motion.motion.foothold import (
     TIME_EPS,
     lowering_start,
@@ -81,11 +82,7 @@ class StumbleSettings:
         for name, lo, hi, unit in (("force", 0.0, 100.0, "N"), ("lift", 0.0, 0.05, "m"),
                                    ("retreat", 0.0, 0.03, "m"), ("lift_time", 0.05, 1.0, "s"),
                                    ("stop_time", 0.005, 0.5, "s")):
-            value = getattr(self, name)
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if not (ok and math.isfinite(value) and lo <= value <= hi):
-                raise ConfigError(f"stumble {name} must be a number in [{lo:g}, {hi:g}] "
-                                  f"{unit}, got {value!r}")
+            number_in(getattr(self, name), f"stumble {name}", lo, hi, unit)
 
 
 @dataclass(frozen=True)
