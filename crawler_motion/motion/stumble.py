@@ -4,9 +4,11 @@ its swing); a second hit ends the walk with the leg and the place instead of pus
 
 A **hit** is a foot contact (`FootContact.YES`) whose horizontal force (base_link: a step
 face or a rock's flank pushes against the swing) reaches ``force`` [N] in `HIT_CONFIRM`
-estimates in a row, while the leg swings before its lowering segment, once the foot has been
-seen off the ground in this swing (a foot still dragging off its foothold is no hit, nor is
-a body that tips onto a swinging foot: that load is vertical).
+estimates in a row (each estimate counted once, however many ticks see it), while the leg
+swings before its lowering segment, once the foot has been seen off the ground in this swing
+with its planned z at least `ARM_HEIGHT` above its lift-off (a stance foot that happens to
+read unloaded, or a foot still dragging off its foothold, is no hit, nor is a body that tips
+onto a swinging foot: that load is vertical).
 
 The **retry** (`replan_swing`) replaces the rest of the swing from the hit time ``t_h`` on with
 four segments, each meeting the plan's state (position, velocity, acceleration) at its start:
@@ -230,6 +232,11 @@ def _merged(horizontal: list[Segment], vertical: list[Segment]) -> list[Segment]
     return out
 
 
+#: A swing watches for hits once its planned foot z is this far above its lift-off z [m] and
+#: the foot reads off the ground (below it, a contact is the lift-off's own drag).
+ARM_HEIGHT = 0.005
+
+
 class HitWatch:
     """Per-leg hit detection of the swings of a slot, in slot time [s]: `begin` each swing,
     `update` every contact estimate; see the module docstring (a retried leg's second hit
@@ -246,14 +253,19 @@ class HitWatch:
         self._armed = [False] * n
         self._pressed = [0] * n
         self._above = [math.inf] * n  # a second hit needs the foot above this z [m]
+        self._arm_z = [math.inf] * n  # arming needs the planned z above this [m]
+        self._stamp = [math.nan] * n  # the estimate last counted
         self.retried = [False] * n
 
-    def begin(self, i: int, t_lower: float) -> None:
-        """Leg ``i`` swings from slot time 0; hits count until ``t_lower`` [s]."""
+    def begin(self, i: int, t_lower: float, z_lift_off: float) -> None:
+        """Leg ``i`` swings from slot time 0 and the planned foot z ``z_lift_off`` [m]; hits
+        count until ``t_lower`` [s]."""
         self._window[i] = (0.0, t_lower)
         self._armed[i] = False
         self._pressed[i] = 0
         self._above[i] = -math.inf
+        self._arm_z[i] = z_lift_off + ARM_HEIGHT
+        self._stamp[i] = math.nan
         self.retried[i] = False
 
     def retry(self, i: int, retry: Retry, z_hit: float) -> None:
@@ -266,10 +278,11 @@ class HitWatch:
         self.retried[i] = True
 
     def update(self, t: float, touching: list[bool], forces: list[float], force: float,
-               z: list[float]) -> list[int]:
-        """The legs hit at slot time ``t`` [s] from the contacts, their horizontal forces [N],
-        the planned foot z [m] (``force`` the hit force [N]); a leg reported stops watching
-        until `begin` / `retry`."""
+               z: list[float], stamp: float) -> list[int]:
+        """The legs hit at slot time ``t`` [s] from the contact estimate of ``stamp`` [s] (an
+        estimate already counted is not counted again): the contacts, their horizontal forces
+        [N], the planned foot z [m] (``force`` the hit force [N]); a leg reported stops
+        watching until `begin` / `retry`."""
         hits = []
         for i, window in enumerate(self._window):
             if window is None:
@@ -278,8 +291,11 @@ class HitWatch:
                                              and z[i] <= self._above[i]):
                 self._window[i] = None  # a retried foot below its hit: it is landing
                 continue
+            if stamp == self._stamp[i]:
+                continue
+            self._stamp[i] = stamp
             if not touching[i]:
-                self._armed[i] = True
+                self._armed[i] = self._armed[i] or z[i] >= self._arm_z[i]
                 self._pressed[i] = 0
                 continue
             if t < window[0] or not self._armed[i]:

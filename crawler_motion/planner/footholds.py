@@ -117,7 +117,8 @@ class Footholds:
         if slot.swing_time > 0.0:
             for i in slot.group:
                 self.adapter.begin_swing(i, slot.legs[i], self._base, slot.swing_time)
-                self.hits.begin(i, lowering_start(slot.legs[i], slot.swing_time))
+                self.hits.begin(i, lowering_start(slot.legs[i], slot.swing_time),
+                                float(slot.legs[i].evaluate(0.0)[0][0, 2]))
         self._plan_pose(slot, held)
 
     def _plan_pose(self, slot: Slot, held: np.ndarray) -> None:
@@ -136,14 +137,14 @@ class Footholds:
         self.pose.plan(self._base, slot.duration, bounded(target, self.attitude))
 
     def _estimate(self) -> tuple[tuple[FootContact, ...] | None, list[float] | None,
-                                 list[float] | None]:
+                                 list[float] | None, float]:
         """Contact states, normal forces and horizontal forces [N] (base_link), or Nones
-        (unknown)."""
+        (unknown), and the estimate's stamp [s]."""
         last = None if self.monitor is None else self.monitor.last
         if last is None or not self.settings.enabled:
-            return None, None, None
+            return None, None, None, math.nan
         return (last.states, last.normal_forces.tolist(),
-                [math.hypot(fx, fy) for fx, fy, _ in last.forces.tolist()])
+                [math.hypot(fx, fy) for fx, fy, _ in last.forces.tolist()], last.stamp)
 
     def targets(self, track: Track, kin: FastKinematics, now: float, t0: float
                 ) -> tuple[list[float], list[float]]:
@@ -154,12 +155,12 @@ class Footholds:
         clock = self._base + t
         if self.replanned is not None:  # a stumble's retry replaced the slot's track
             track = self.replanned
-        states, forces, totals = self._estimate()
+        states, forces, totals, stamp = self._estimate()
         if states is None and self.adapter.quiet(clock) and self.pose.quiet():
             return joint_targets(track, kin, t)  # the blind plan, at its cost
         pos, vel = track.evaluate(t)
         if states is not None and totals is not None and self.stumble.enabled:
-            retried = self._stumbles(track, t, states, totals, pos)
+            retried = self._stumbles(track, t, states, totals, pos, stamp)
             if retried is not track:
                 track = retried
                 pos, vel = track.evaluate(t)
@@ -177,12 +178,14 @@ class Footholds:
         return kin.solve(pos, vel)
 
     def _stumbles(self, track: Track, t: float, states: tuple[FootContact, ...],
-                  totals: list[float], planned: list[float]) -> Track:
-        """Hits at slot time ``t`` [s] (``planned`` the feet of ``track`` then [m]): a first
+                  totals: list[float], planned: list[float], stamp: float) -> Track:
+        """Hits at slot time ``t`` [s] (``planned`` the feet of ``track`` then [m], ``stamp``
+        that of the contact estimate [s]): a first
         one re-plans the swing (``replanned``), a second one (or one that cannot be retried)
         sets ``failure``; the track to use."""
         touching = [s is FootContact.YES for s in states]
-        for i in self.hits.update(t, touching, totals, self.stumble.force, planned[2::3]):
+        for i in self.hits.update(t, touching, totals, self.stumble.force, planned[2::3],
+                                  stamp):
             where = planned[3 * i:3 * i + 3]
             place = (f"at x {where[0]:+.3f}, y {where[1]:+.3f}, z {where[2]:+.3f} m in "
                      f"base_link, {t:.2f} s into its swing")

@@ -15,6 +15,7 @@ from crawler_motion.model.config import load_config
 from crawler_motion.motion.foothold import lowering_start
 from crawler_motion.motion.gait import WalkParams, iter_walk
 from crawler_motion.motion.stumble import (
+    ARM_HEIGHT,
     HIT_CONFIRM,
     MIN_RETRY_TIME,
     HitWatch,
@@ -144,13 +145,20 @@ def test_boundary_settings_are_accepted(field: str, value: float) -> None:
     assert getattr(StumbleSettings(**{field: value}), field) == value
 
 
-def _feed(watch: HitWatch, rows: list[tuple[float, bool, float, float]]) -> list[float]:
-    """Times at which leg 0 is reported, from (t, touching, force, z) rows."""
+def _feed(watch: HitWatch, rows: list[tuple[float, bool, float, float]],
+          stamps: list[float] | None = None) -> list[float]:
+    """Times at which leg 0 is reported, from (t, touching, force, z) rows (each a new
+    contact estimate unless ``stamps`` says otherwise)."""
     hits = []
-    for t, touching, force, z in rows:
-        if watch.update(t, [touching, False], [force, 0.0], 10.0, [z, 0.0]):
+    for k, (t, touching, force, z) in enumerate(rows):
+        stamp = t if stamps is None else stamps[k]
+        if watch.update(t, [touching, False], [force, 0.0], 10.0, [z, 0.0], stamp):
             hits.append(t)
     return hits
+
+
+#: Planned lift-off z of the watched swings [m]: rows at z 0 are above it by `ARM_HEIGHT`.
+LIFT_OFF_Z = -ARM_HEIGHT
 
 
 @pytest.mark.parametrize(("rows", "expected"), [
@@ -169,7 +177,7 @@ def test_hits_need_an_armed_swing_the_force_twice_and_the_time_before_lowering(
         rows: list[tuple[float, bool, float, float]], expected: list[float]) -> None:
     assert HIT_CONFIRM == 2
     watch = HitWatch(2)
-    watch.begin(0, 0.3)
+    watch.begin(0, 0.3, LIFT_OFF_Z)
     assert _feed(watch, rows) == expected
 
 
@@ -185,8 +193,31 @@ def test_hits_need_an_armed_swing_the_force_twice_and_the_time_before_lowering(
 def test_a_retried_foot_hits_again_when_it_touches_above_the_first_hit(
         rows: list[tuple[float, bool, float, float]], expected: list[float]) -> None:
     watch = HitWatch(2)
-    watch.begin(0, 0.3)
+    watch.begin(0, 0.3, LIFT_OFF_Z)
     retry = Retry(PLAN, 0.2, 0.35, 0.06)
     watch.retry(0, retry, 0.03)
     assert watch.retried[0]
     assert _feed(watch, rows) == expected
+
+
+@pytest.mark.parametrize(("rows", "stamps", "expected"), [
+    # read unloaded while still at its lift-off height (a light stance foot), then dragged off
+    # its foothold: never armed, no hit
+    ([(0.0, False, 0.0, LIFT_OFF_Z), (0.01, True, 20.0, LIFT_OFF_Z + 0.001),
+      (0.02, True, 20.0, LIFT_OFF_Z + 0.003)], None, []),
+    # off the ground just below the arming height: still not armed
+    ([(0.0, False, 0.0, LIFT_OFF_Z + ARM_HEIGHT - 1e-4), (0.1, True, 20.0, 0.0),
+      (0.11, True, 20.0, 0.0)], None, []),
+    # one estimate seen by two ticks: counted once, no hit
+    ([(0.0, False, 0.0, 0.0), (0.1, True, 20.0, 0.0), (0.11, True, 20.0, 0.0)],
+     [0.0, 0.1, 0.1], []),
+    # ... and a third tick with a new estimate confirms it
+    ([(0.0, False, 0.0, 0.0), (0.1, True, 20.0, 0.0), (0.11, True, 20.0, 0.0),
+      (0.12, True, 20.0, 0.0)], [0.0, 0.1, 0.1, 0.12], [0.12]),
+])
+def test_hits_are_armed_above_the_lift_off_and_count_estimates_not_ticks(
+        rows: list[tuple[float, bool, float, float]], stamps: list[float] | None,
+        expected: list[float]) -> None:
+    watch = HitWatch(2)
+    watch.begin(0, 0.3, LIFT_OFF_Z)
+    assert _feed(watch, rows, stamps) == expected

@@ -65,3 +65,19 @@ def test_a_foot_that_hits_a_block_is_lifted_retried_and_then_holds_the_walk(
         loop.tick()
         assert loop.core.state == "HOLDING"
         np.testing.assert_array_equal(loop.data.ctrl, held)
+
+
+@pytest.mark.slow
+def test_a_fast_diagonal_walk_on_flat_ground_has_no_hit(tmp_path: Path) -> None:
+    """The lift-off's drag of a foot that read unloaded in its stance (a light robot in water)
+    is no hit: a fast diagonal walk (stride 8 cm, 0.25 s swings) on a plane ends standing."""
+    world = tmp_path / "flat.xml"
+    world.write_text(BLOCK.replace('<geom name="block"', '<!-- no block').replace(
+        '0.0225"/>\n', '0.0225" -->\n'))
+    cfg = load_config()
+    loop = FootholdLoop(cfg, str(world), FootholdSettings(enabled=True),
+                        stumble=StumbleSettings())
+    params = replace(WalkParams.defaults(cfg.gait), gait="diagonal", stride=0.08,
+                     swing_time=0.25)
+    rec = loop.walk(params, 6, limit=30.0)
+    assert rec.state == "STANDING" and not [e for e in rec.events if "hit" in e], rec.events
