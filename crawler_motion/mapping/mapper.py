@@ -57,6 +57,7 @@ class SkipReason(Enum):
     ODOMETRY_GAP = "the odometry samples around the scan are more than 2 tolerances apart"
     QUEUE_FULL = "held scan dropped: more than scan_queue scans waiting for odometry"
     BAD_POSE = "odometry pose not finite"
+    BAD_STAMP = "scan stamp not finite"
     MALFORMED = "not an x y z float32 cloud in the scanner frame"
 
 
@@ -158,6 +159,8 @@ class TerrainMapper:
     def pose_at(self, stamp: float) -> Pose | SkipReason:
         """The body pose at ``stamp`` [s], interpolated between the odometry samples around it
         (the rule of the module docstring), or why there is none yet or at all."""
+        if not math.isfinite(stamp):
+            return SkipReason.BAD_STAMP
         if not self._poses:
             return SkipReason.NO_ODOMETRY
         if stamp < self._poses[0].stamp:
@@ -176,6 +179,8 @@ class TerrainMapper:
     def add_scan(self, points: np.ndarray, stamp: float) -> ScanFate | SkipReason:
         """Fuse one scan (``(k, 3)`` scanner_link [m], stamp [s]) now, hold it for the odometry
         at its stamp, or skip it: the fate, or the reason when skipped."""
+        if not math.isfinite(stamp):
+            return self._skip(SkipReason.BAD_STAMP)
         pts = np.asarray(points, dtype=float).reshape(-1, 3)
         if len(pts) == 0:
             return self._skip(SkipReason.EMPTY)

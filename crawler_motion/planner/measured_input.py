@@ -7,7 +7,9 @@ driver's CAN thread, right after publishing it), as the planner hands its target
 no serialisation, no executor wake-up and wait-set rebuild per message (at 100 Hz the largest
 share of the executor's CPU). The planner takes the states handed over in its tick thread,
 right after a tick (`take_handed`): that work then fills the time between two ticks instead of
-holding the interpreter lock when the next tick is due. The topic is then read by a thread of
+holding the interpreter lock when the next tick is due. Each state keeps the steady time it was
+handed over at, so one taken after a stalled tick thread is not taken for a newer measurement
+(a resume waits for one taken after the interruption). The topic is then read by a thread of
 its own
 (`runtime.ros_reader.SubscriptionReader`) and only while it has a publisher besides that
 driver; the driver's own messages (``own_state``) reached the planner already and are skipped,
@@ -16,6 +18,7 @@ any other publisher's are taken as in the two-node pipeline.
 
 from __future__ import annotations
 
+import time
 from collections import deque
 from collections.abc import Callable
 
@@ -34,16 +37,17 @@ MAX_HANDED = 16
 
 class MeasuredInput:
     """``take(msg)`` for every measured joint state of ``node``: from the ``joint_states``
-    topic through the executor, or after `compose` directly from the driver (`hand_over`) and
-    from the topic's other publishers."""
+    topic through the executor, or after `compose` directly from the driver (`hand_over`:
+    ``take(msg, received)``, the steady time [s] of the hand-over) and from the topic's other
+    publishers."""
 
-    def __init__(self, node: Node, take: Callable[[JointState], None]) -> None:
+    def __init__(self, node: Node, take: Callable[..., None]) -> None:
         self._node = node
         self._take = take
         self._subscription = node.create_subscription(JointState, "joint_states", take,
                                                       MEASURED_QOS)
         self._reader: SubscriptionReader | None = None
-        self._handed: deque[JointState] = deque(maxlen=MAX_HANDED)
+        self._handed: deque[tuple[JointState, float]] = deque(maxlen=MAX_HANDED)
         self.closed = False
         self.handed = 0  # states handed over directly
         self.dropped = 0  # of them, dropped untaken (more than MAX_HANDED waiting)
@@ -76,14 +80,14 @@ class MeasuredInput:
             self.handed += 1
             if len(self._handed) == MAX_HANDED:
                 self.dropped += 1
-            self._handed.append(msg)
+            self._handed.append((msg, time.monotonic()))
 
     def take_handed(self) -> int:
         """Take the states handed over since the last call, in order (the tick thread, after
         a tick); returns how many."""
         taken = 0
         while self._handed and not self.closed:
-            self._take(self._handed.popleft())
+            self._take(*self._handed.popleft())
             taken += 1
         return taken
 

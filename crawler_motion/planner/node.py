@@ -276,14 +276,15 @@ class PlannerNode(Node):
                 pass
         self._after_core_call()
 
-    def _on_joint_states(self, msg: JointState) -> None:
+    def _on_joint_states(self, msg: JointState, received: float | None = None) -> None:
+        """One measured state, received at steady time ``received`` [s] (None: now)."""
         try:
             q = validate_joint_state(msg.name, msg.position, msg.velocity, self._joint_names)
         except CommandError as exc:
             self._log(Severity.WARNING, f"joint_states ignored: {exc}")
             return
         with self._lock:
-            self.core.set_measured(q, time.monotonic())
+            self.core.set_measured(q, time.monotonic() if received is None else received)
         self._contact_topics.on_joint_state(msg, q)
 
     def _on_driver_status(self, msg: String) -> None:

@@ -13,6 +13,8 @@ walk then continues where it stopped, a move starts again from there.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from crawler_motion.model.config import Config
@@ -86,8 +88,8 @@ class Resumer:
     def before_tick(self, last: float, now: float, rate_hz: float) -> None:
         """Ticks from ``last`` to ``now`` [s] more than `FREEZE_GAP` (and 3 periods) apart
         interrupt at ``last``; a walk held at a slot boundary by a pause waits for a resume."""
-        gap = now - last
-        if gap > max(FREEZE_GAP, 3.0 / rate_hz):
+        gap = now - last  # infinite before the first tick: nothing was interrupted
+        if math.isfinite(gap) and gap > max(FREEZE_GAP, 3.0 / rate_hz):
             self.interrupt(last, f"no tick for {gap:.3f} s")
         if self.ctx.state in WALK_STATES and self.walk.waiting and not self.active:
             self.interrupt(now, "pause")

@@ -59,6 +59,8 @@ def mapper_with(stamps: tuple[float, ...] = STAMPS, **kw: float) -> TerrainMappe
     (1.0001, ScanFate.HELD, SkipReason.AHEAD_OF_ODOMETRY),  # just ahead of the newest
     (1.125, ScanFate.HELD, SkipReason.AHEAD_OF_ODOMETRY),  # ahead by exactly the tolerance
     (1.1251, SkipReason.AHEAD_OF_ODOMETRY, SkipReason.AHEAD_OF_ODOMETRY),  # ahead by more
+    (math.nan, SkipReason.BAD_STAMP, SkipReason.BAD_STAMP),  # never held: it would block
+    (math.inf, SkipReason.BAD_STAMP, SkipReason.BAD_STAMP),
 ])
 def test_a_scan_s_pose_by_its_stamp(stamp: float, outcome: ScanFate | SkipReason,
                                     pose: int | tuple[int, int] | SkipReason) -> None:

@@ -56,10 +56,10 @@ def node() -> Iterator[Any]:
         spinner.join(2.0)
 
 
-def _taker() -> tuple[list[tuple[int, str]], Callable[[JointState], None]]:
+def _taker() -> tuple[list[tuple[int, str]], Callable[..., None]]:
     got: list[tuple[int, str]] = []
-    return got, lambda msg: got.append((msg.header.stamp.nanosec,
-                                        threading.current_thread().name))
+    return got, lambda msg, received=None: got.append((msg.header.stamp.nanosec,
+                                                       threading.current_thread().name))
 
 
 def test_alone_the_topic_is_taken_by_the_executor(node) -> None:
@@ -109,4 +109,20 @@ def test_composed_the_topic_is_taken_only_with_another_publisher_skipping_own(no
         time.sleep(0.05)
     assert got and {n for n, _ in got} == {50}
     assert {name for _, name in got} == {"planner-joint-states"}
+    measured.close()
+
+
+def test_a_state_handed_over_keeps_the_time_it_was_handed_over_at(node) -> None:
+    """Taken after a stalled tick thread, a state is as old as it is: a resume from the
+    measured pose waits for one handed over after the interruption."""
+    received: list[float] = []
+    measured = MeasuredInput(node, lambda msg, at=None: received.append(at))
+    measured.compose(lambda msg: True)
+    before = time.monotonic()
+    measured.hand_over(state(1))
+    time.sleep(0.2)  # the tick thread stalls
+    measured.hand_over(state(2))
+    after = time.monotonic()
+    assert measured.take_handed() == 2
+    assert before <= received[0] <= received[0] + 0.15 < received[1] <= after
     measured.close()

@@ -214,3 +214,13 @@ def test_rate_against_the_driver_command_timeout(rate, timeout, refused):
                        **({} if timeout is None else {"command_timeout": timeout})})
     problem = rate_problem(rate, parse_driver_status(text))
     assert bool(problem) == refused and (not refused or "watchdog would trip" in problem)
+
+
+def test_a_stand_sent_before_the_first_tick_is_not_an_interruption():
+    core = PlannerCore(CFG, 100.0)
+    core.on_driver(report("enabled", 1), 0.0)
+    core.set_measured(STAND, 0.0)
+    core.submit('{"command": "stand"}', 0.0)
+    assert core.tick(0.0) is not None
+    status = core.status()
+    assert status["interruptions"] == 0 and not status["resuming"], status["last_event"]
