@@ -46,6 +46,7 @@ class MeasuredInput:
         self._take = take
         self._subscription = node.create_subscription(JointState, "joint_states", take,
                                                       MEASURED_QOS)
+        self._topic = self._subscription.topic_name
         self._reader: SubscriptionReader | None = None
         self._handed: deque[tuple[JointState, float]] = deque(maxlen=MAX_HANDED)
         self.closed = False
@@ -90,6 +91,12 @@ class MeasuredInput:
             self._take(*self._handed.popleft())
             taken += 1
         return taken
+
+    def report(self) -> dict[str, int]:
+        """``publishers`` of the topic (more than 1: the measured pose may be any of theirs),
+        the states ``handed`` over directly and of them ``dropped`` untaken."""
+        return {"publishers": self._node.count_publishers(self._topic),
+                "handed": self.handed, "dropped": self.dropped}
 
     def close(self) -> None:
         """Take nothing more (the node is being destroyed)."""

@@ -369,6 +369,10 @@ class PlannerNode(Node):
             self._status_revision = status["revision"]
             self._status_key, self._status_at = key, now
         status["missed_ticks"] = self._ticker.missed
+        status["joint_states"] = measured = self.measured.report()
+        if measured["publishers"] > 1:
+            self._log(Severity.WARNING, f"joint_states has {measured['publishers']} publishers: "
+                      f"the measured pose may be any of theirs; stop all but the driver")
         status["time"] = self.get_clock().now().nanoseconds * 1e-9
         self._pub_status.publish(String(data=json.dumps(status)))
 
