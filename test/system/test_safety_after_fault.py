@@ -280,10 +280,13 @@ def test_7_every_node_exits_0_when_interrupted_mid_walk_again_and_again(make_sta
     again: every exit status is 0."""
     stack = make_stack()
     stack.up_and_walking()
+    driver = DriverState(stack.console)
     exits = []
     for i, sig in enumerate((signal.SIGINT, signal.SIGTERM, signal.SIGINT)):
         for name in ("planner_node", "driver_node"):
             stack.spin(0.3 + 0.07 * i)  # mid-walk, at a different phase each time
+            assert stack.console.wait_until(lambda: driver.status is not None, WAIT)
+            instance = driver.status["instance"]
             proc = stack.procs[name]
             proc.send_signal(sig)
             code = proc.wait(15)
@@ -291,6 +294,10 @@ def test_7_every_node_exits_0_when_interrupted_mid_walk_again_and_again(make_sta
             assert code == 0, f"{name} exited {code} on {sig.name}:\n{stack.log_tails(30)}"
             stack.processes.start({name: stack.spec.commands()[name]}, fi.isolated_env())
             stack.statuses.clear()
+            if name == "driver_node":  # the new driver up (a loaded machine: seconds)
+                assert stack.console.wait_until(
+                    lambda old=instance: driver.status["instance"] != old, WAIT), (
+                    f"the driver did not come back\n{stack.log_tails(30)}")
             assert stack.console.wait_until(  # the planner up and hearing the driver
                 lambda: stack.status.get("driver") is not None, WAIT), (
                 f"{name} did not come back: {stack.status}")
