@@ -20,15 +20,7 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from crawler_motion.planner.measured_input import MAX_HANDED, MeasuredInput  # noqa: E402
-
-
-def wait_until(predicate: Callable[[], object], timeout: float = 10.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return bool(predicate())
+from crawler_motion.testing.polling import wait_until  # noqa: E402
 
 
 def state(nanosec: int) -> JointState:
