@@ -318,7 +318,9 @@ def test_valid_variants_load(changes, tmp_path):
     if GROUPS in changes:
         assert cfg.gait.gaits["diagonal"] == (("rf",), ("lb",), ("lf", "rb"))
     key = "gait.gaits.diagonal.transfer_time"
-    assert cfg.gait.transfers == ({"diagonal": changes[key]} if key in changes else {})
+    shipped = {"diagonal_sway": 0.3}  # the shipped config's swaying diagonal gait
+    assert cfg.gait.transfers == ({**shipped, "diagonal": changes[key]} if key in changes
+                                  else shipped)
 
 
 def test_the_body_pose_limits_load():

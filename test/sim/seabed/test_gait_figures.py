@@ -30,6 +30,7 @@ def summary(steps: int = 2, **overrides: object) -> dict:
     pytest.param({"gait": "wave", "heading": math.pi}, id="wave-backward"),
     pytest.param(SWAYING_DIAGONAL, id="diagonal-with-transfer-forward"),
     pytest.param({**SWAYING_DIAGONAL, "heading": math.pi / 2}, id="diagonal-with-transfer-side"),
+    pytest.param({"gait": "diagonal_sway"}, id="diagonal-sway-gait-forward"),  # the config's
 ])
 def test_swaying_walks_do_not_rock_or_scuff(overrides):
     # Before the sway: diagonal roll 3.2° / pitch 6.1°, mid-swing contact 6.7 %; wave pitch 4.7°.
