@@ -30,6 +30,8 @@ from crawler_motion.runtime.ros_reader import SubscriptionReader
 
 #: QoS of the ``joint_states`` subscription (only fresh measurements matter).
 MEASURED_QOS = qos_profile_sensor_data
+#: Least time between two warnings of more than one joint_states publisher [s].
+FOREIGN_WARN_PERIOD = 2.0
 #: States handed over and not yet taken, at most (the oldest is dropped beyond: a stalled tick
 #: thread must not grow the queue; 0.16 s of feedback at 100 Hz).
 MAX_HANDED = 16
@@ -52,6 +54,7 @@ class MeasuredInput:
         self.closed = False
         self.handed = 0  # states handed over directly
         self.dropped = 0  # of them, dropped untaken (more than MAX_HANDED waiting)
+        self.publishers = 0  # of the topic, as last counted
 
     @property
     def composed(self) -> bool:
@@ -92,11 +95,21 @@ class MeasuredInput:
             taken += 1
         return taken
 
+    def count_publishers(self) -> int:
+        """Count the topic's publishers now (a graph query: the caller's periodic timer, not
+        the tick thread); more than 1 means the measured pose may be any of theirs: a warning
+        (at most every `FOREIGN_WARN_PERIOD`)."""
+        self.publishers = self._node.count_publishers(self._topic)
+        if self.publishers > 1:
+            self._node.get_logger().warning(
+                f"joint_states has {self.publishers} publishers: the measured pose may be any "
+                f"of theirs; stop all but the driver", throttle_duration_sec=FOREIGN_WARN_PERIOD)
+        return self.publishers
+
     def report(self) -> dict[str, int]:
-        """``publishers`` of the topic (more than 1: the measured pose may be any of theirs),
-        the states ``handed`` over directly and of them ``dropped`` untaken."""
-        return {"publishers": self._node.count_publishers(self._topic),
-                "handed": self.handed, "dropped": self.dropped}
+        """``publishers`` of the topic as last counted (`count_publishers`), the states
+        ``handed`` over directly and of them ``dropped`` untaken."""
+        return {"publishers": self.publishers, "handed": self.handed, "dropped": self.dropped}
 
     def close(self) -> None:
         """Take nothing more (the node is being destroyed)."""

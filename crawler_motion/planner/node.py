@@ -208,7 +208,7 @@ class PlannerNode(Node):
         self.create_subscription(String, "driver_status", self._on_driver_status, status_qos)
         self._contact_topics = ContactTopics(self, self.core.contacts)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._status_timer = self.create_timer(STATUS_PERIOD, self._publish_status,
+        self._status_timer = self.create_timer(STATUS_PERIOD, self._on_status_timer,
                                                clock=steady)
 
     def _report_priority(self, priority: int, error: str) -> None:
@@ -356,6 +356,11 @@ class PlannerNode(Node):
         if changed:
             self._publish_status(urgent_only=True)
 
+    def _on_status_timer(self) -> None:
+        """Executor, every `STATUS_PERIOD`: recount the joint_states publishers, publish."""
+        self.measured.count_publishers()
+        self._publish_status()
+
     def _publish_status(self, urgent_only: bool = False) -> None:
         """Publish the status; with ``urgent_only`` only if a `STATUS_URGENT_KEYS` value
         changed or `STATUS_MIN_INTERVAL` passed (the ticker publishes a held-back change)."""
@@ -369,10 +374,7 @@ class PlannerNode(Node):
             self._status_revision = status["revision"]
             self._status_key, self._status_at = key, now
         status["missed_ticks"] = self._ticker.missed
-        status["joint_states"] = measured = self.measured.report()
-        if measured["publishers"] > 1:
-            self._log(Severity.WARNING, f"joint_states has {measured['publishers']} publishers: "
-                      f"the measured pose may be any of theirs; stop all but the driver")
+        status["joint_states"] = self.measured.report()
         status["time"] = self.get_clock().now().nanoseconds * 1e-9
         self._pub_status.publish(String(data=json.dumps(status)))
 
