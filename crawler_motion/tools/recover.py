@@ -103,13 +103,13 @@ def recover(console: Console, driver: DriverState, say: Callable[[str], None],
         return False, "no driver_status: is the driver running?"
     if driver.status.get("lifecycle") != "active":
         return False, f"the driver is {driver.status.get('lifecycle')}: activate it first"
+    def cause() -> str:
+        return persistent_cause(driver.manager[1] if driver.manager else "")
+
     # a cause may be a report from just before the driver (re)started or the bus came back:
     # it refuses only if it is still there after ``timeout``
-    console.wait_until(lambda: not persistent_cause(driver.manager[1] if driver.manager
-                                                    else ""), timeout)
-    cause = persistent_cause(driver.manager[1] if driver.manager else "")
-    if cause:
-        return False, f"refused: {cause}"
+    if not console.wait_until(lambda: not cause(), timeout):
+        return False, f"refused: {cause()}"
     if (console.status or {}).get("state") == "ESTOP":
         ok, message = console.run({"command": "reset"}, timeout)
         say(f"planner reset: {message}")
