@@ -25,9 +25,12 @@ tears the stack down. The two pipelines alternate rate by rate, so both see the 
 - CPU of each process: utime + stime from /proc/<pid>/stat over the window, in % of one core
   (the listener child and this process are shown too: they are load on the same machine);
   planner + driver (two processes, or the one controller) per command in ms of CPU.
+- The machine's floor (`wake_floor`), before each rate unless ``--no-floor``: a bare ticker
+  process at that rate for the same window, nothing of the stack running; a target below it
+  cannot be met on this machine at normal priority.
 
 Run: crawler-motion bench --e2e [--seconds 15] [--rates 100,200,500,1000]
-[--pipelines two-node,controller]
+[--pipelines two-node,controller] [--no-floor]
 The machine may be shared: the figures depend on its load; rerun before drawing conclusions.
 Exit status: 0 when every rate ran (whether the target is met or not), 1 when a run failed.
 
@@ -42,12 +45,13 @@ import math
 import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 
 import numpy as np
 
+from crawler_motion.tools import wake_floor
 from crawler_motion.tools.e2e_analysis import (
     Matching,
     PeriodStats,
@@ -64,6 +68,7 @@ from crawler_motion.tools.e2e_analysis import (
 from crawler_motion.tools.e2e_records import GROUP_T, REC_STAMP
 from crawler_motion.tools.e2e_stack import Finish, Stack
 from crawler_motion.tools.procstat import cpu_percent
+from crawler_motion.tools.wake_floor import Floor
 
 #: Command rates of the bench [Hz].
 RATES = (100.0, 200.0, 500.0, 1000.0)
@@ -210,8 +215,10 @@ def cpu_text(result: RateResult) -> str:
             f"{fmt(per, 2)} | {fmt(driver, 2)}")
 
 
-def print_timing_table(results: Sequence[RateResult], seconds: float) -> None:
-    """The table of timing, latency, losses and CPU per pipeline and rate."""
+def print_timing_table(results: Sequence[RateResult], seconds: float,
+                       floors: Mapping[float, Floor]) -> None:
+    """The table of timing, latency, losses and CPU per pipeline and rate, each rate's rows
+    after its floor (`wake_floor`) where it was measured."""
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(f"\n## End to end: planner -> driver -> CAN ({seconds:g} s walking per rate, "
           f"{os.cpu_count()} CPUs, load average now {load})\n")
@@ -220,7 +227,11 @@ def print_timing_table(results: Sequence[RateResult], seconds: float) -> None:
           "max [ms] | lost | CPU % planner + driver | CPU ms / command | driver CPU ms / "
           "command | CPU % sim / tap / bench |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    shown: set[float] = set()
     for r in results:
+        if r.rate in floors and r.rate not in shown:
+            shown.add(r.rate)
+            print(wake_floor.table_row(floors[r.rate]))
         if r.timing is None:
             print(f"| {r.pipeline.value} | {r.rate:g} | failed: {r.error} | | | | | | | | | |")
             continue
@@ -273,8 +284,9 @@ def shortfalls(result: RateResult, target: Target) -> list[str]:
     return out + ([result.error] if result.error else [])
 
 
-def print_verdict(results: Sequence[RateResult]) -> bool:
-    """The verdict on each pipeline's target and the definitions; True when all are met."""
+def print_verdict(results: Sequence[RateResult], floors: Mapping[float, Floor]) -> bool:
+    """The verdict on each pipeline's target, what the machine's floor allows, and the
+    definitions; True when all targets are met."""
     met_all = True
     for pipeline, target in TARGETS.items():
         result = next((r for r in results if r.rate == TARGET_RATE and r.pipeline is pipeline),
@@ -293,6 +305,9 @@ def print_verdict(results: Sequence[RateResult]) -> bool:
               + ("**met**" if not why else f"**NOT met** ({', '.join(why)})")
               + (f"; {result.lost} of its commands in the window never reached the bus"
                  if result.lost else ""))
+    if TARGET_RATE in floors:
+        strictest = min(t.p99_period_error_ms for t in TARGETS.values())
+        print("\n" + wake_floor.verdict(floors[TARGET_RATE], strictest))
     print("\nPeriod error = |difference of consecutive JointState header stamps - 1/rate|. "
           "Latency = kernel receive time of the first target frame of a tick on the listener's "
           "udp_multicast socket - the JointState header stamp (same system clock). "
@@ -303,11 +318,13 @@ def print_verdict(results: Sequence[RateResult]) -> bool:
     return met_all
 
 
-def print_table(results: Sequence[RateResult], seconds: float) -> bool:
+def print_table(results: Sequence[RateResult], seconds: float,
+                floors: Mapping[float, Floor] | None = None) -> bool:
     """Print the Markdown tables and the verdict; True when the target is met."""
-    print_timing_table(results, seconds)
+    floors = {} if floors is None else floors
+    print_timing_table(results, seconds, floors)
     print_flow_table(results)
-    return print_verdict(results)
+    return print_verdict(results, floors)
 
 
 def parse_rates(text: str) -> tuple[float, ...]:
@@ -345,6 +362,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="the planner's tick_priority (1-99: SCHED_FIFO tick thread, "
                              "the planner and driver processes one below; default 0: normal "
                              "scheduling)")
+    parser.add_argument("--no-floor", dest="floor", action="store_false",
+                        help="skip the machine's floor (a bare ticker process, as long as "
+                             "each run, before each rate)")
     args = parser.parse_args(argv)
     if not 0 <= args.tick_priority <= 99:
         parser.error(f"--tick-priority must be in [0, 99], got {args.tick_priority}")
@@ -355,16 +375,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     def say(line: str) -> None:
         print(f"[{time.monotonic() - t_start:6.1f} s] {line}", file=sys.stderr, flush=True)
 
-    results = []
+    results, floors = [], {}
     try:
         for rate in args.rates:
+            if args.floor:
+                say(f"floor {rate:g} Hz: a bare ticker process for {args.seconds:g} s")
+                try:
+                    floors[rate] = wake_floor.measure(rate, args.seconds)
+                except RuntimeError as exc:
+                    say(f"floor {rate:g} Hz: error: {exc}")
             for pipeline in args.pipelines:
                 results.append(bench_rate(rate, args.seconds, gait=args.gait, say=say,
                                           tick_priority=args.tick_priority,
                                           pipeline=pipeline))
     except KeyboardInterrupt:
         return 130
-    print_table(results, args.seconds)
+    print_table(results, args.seconds, floors)
     return 1 if any(r.timing is None for r in results) else 0
 
 
