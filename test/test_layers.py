@@ -16,7 +16,7 @@ LAYERS: tuple[str, ...] = ("errors", "model", "motion", "calibration", "canbus",
 #: Modules that may import rclpy / ROS message packages: the nodes, their ROS helpers, and
 #: the tools and test stack on top; the pure core (everything else) never does.
 ROS_MODULES = {"planner/node.py", "driver/node.py", "driver/rclpy_workarounds.py",
-               "planner/contact_topics.py", "planner/measured_input.py",
+               "planner/contact_topics.py", "planner/measured_input.py", "planner/imu_input.py",
                "driver/messages.py", "driver/command_input.py", "controller/node.py",
                "runtime/ros_reader.py",
                "runtime/ros_parameters.py", "runtime/ros_main.py", "sim/seabed/node.py",

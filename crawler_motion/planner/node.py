@@ -8,7 +8,7 @@ by it: `measured_input`) and ``/diagnostics``
 ERROR pauses the planner until every such status is OK or WARN again; STALE and other robots'
 statuses change nothing: `runtime.diagnostic_names`) and ``driver_status`` (std_msgs/String
 JSON, transient local: the driver's gate state ends a walk, a new enable epoch resumes it from
-the measured pose; see `planner.driver_view`).
+the measured pose; see `planner.driver_view`) and ``imu`` (`planner.imu_input`).
 Publishes ``joint_commands`` (sensor_msgs/JointState: 12 joints, position + velocity, stamped)
 at ``rate`` Hz (nothing in IDLE and ESTOP), and ``planner_status`` (std_msgs/String JSON,
 transient local) on every change and at least once a second; the foot contacts estimated from
@@ -37,6 +37,7 @@ import json
 import threading
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 from builtin_interfaces.msg import Time
@@ -57,6 +58,7 @@ from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.planner.contact_topics import ContactTopics
 from crawler_motion.planner.core import JointTarget, PlannerCore
 from crawler_motion.planner.driver_view import parse_driver_status, rate_problem
+from crawler_motion.planner.imu_input import ImuInput
 from crawler_motion.planner.measured_input import MeasuredInput
 from crawler_motion.planner.parameters import (
     CALIBRATION_SPEC,
@@ -98,6 +100,15 @@ def _level(value: Any) -> int:
 def _severity(level: str) -> Severity:
     """The `Severity` of a core event level (``info``, ``warn`` or ``error``)."""
     return Severity.WARNING if level == "warn" else Severity(level)
+
+
+def report_priority(node: Node, priority: int, error: str) -> None:
+    """Log the tick thread's real-time priority, or why it could not be set."""
+    if error:
+        node.get_logger().warning(error)
+    elif priority:
+        node.get_logger().info(f"tick thread at SCHED_FIFO priority {priority}"
+                               + (f", the process at {priority - 1}" if priority > 1 else ""))
 
 
 class FaultLevels:
@@ -173,7 +184,7 @@ class PlannerNode(Node):
         self._publish_status()
         self._ahead.start()
         self._ticker.start()
-        self._report_priority(priority, self._ticker.priority_error or process_error)
+        report_priority(self, priority, self._ticker.priority_error or process_error)
 
     def destroy_node(self) -> None:
         """Stop the ticker and planning threads, then destroy the node."""
@@ -207,17 +218,10 @@ class PlannerNode(Node):
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.create_subscription(String, "driver_status", self._on_driver_status, status_qos)
         self._contact_topics = ContactTopics(self, self.core.contacts)
+        self.imu = ImuInput(self, self.core, self._lock, partial(self._log, Severity.WARNING))
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._status_timer = self.create_timer(STATUS_PERIOD, self._on_status_timer,
                                                clock=steady)
-
-    def _report_priority(self, priority: int, error: str) -> None:
-        if error:
-            self.get_logger().warning(error)
-        elif priority:
-            self.get_logger().info(f"tick thread at SCHED_FIFO priority {priority}"
-                                   + (f", the process at {priority - 1}" if priority > 1
-                                      else ""))
 
     # ----------------------------------------------------------------- parameters
     def _parameter_values(self, changes: list[Parameter] | None = None) -> dict[str, Any]:
@@ -375,6 +379,7 @@ class PlannerNode(Node):
             self._status_key, self._status_at = key, now
         status["missed_ticks"] = self._ticker.missed
         status["joint_states"] = self.measured.report()
+        status["imu"] = self.imu.report(now)
         status["time"] = self.get_clock().now().nanoseconds * 1e-9
         self._pub_status.publish(String(data=json.dumps(status)))
 
