@@ -70,6 +70,11 @@ class GaitConfig:
     #: by gait (key ``transfer_time`` of a table; without it: ``transfer_time`` for a crawl
     #: gait, none for another, `crawler_motion.motion.walk_options.gait_transfer_time`).
     transfers: dict[str, float] = field(default_factory=dict)
+    #: By gait of pairs (key ``sway_weight`` of a table, dimensionless): the body moves along
+    #: its support line in the swings, trading the sway's size against the transfer's travel
+    #: (`crawler_motion.motion.sway.line_sways`); without it the sway is the nearest point of
+    #: the line and the transfer carries the whole step.
+    sway_weights: dict[str, float] = field(default_factory=dict)
 
 
 def _parse_gaits(data: Mapping[str, Any], legs: tuple[str, ...], where: str
@@ -90,16 +95,31 @@ def _parse_gaits(data: Mapping[str, Any], legs: tuple[str, ...], where: str
     return gaits
 
 
-def _parse_transfers(data: Mapping[str, Any], where: str) -> dict[str, float]:
-    transfers: dict[str, float] = {}
+def _parse_table_values(data: Mapping[str, Any], key: str, unit: str, where: str
+                        ) -> dict[str, float]:
+    """The phase tables' own ``key`` (a number >= 0, in ``unit``), by gait."""
+    values: dict[str, float] = {}
     for name, table in _section(data, "gaits", where).items():
-        if isinstance(table, Mapping) and "transfer_time" in table:
-            what = f"{where}.gaits.{name}.transfer_time"
-            value = _number(table["transfer_time"], what)
+        if isinstance(table, Mapping) and key in table:
+            what = f"{where}.gaits.{name}.{key}"
+            value = _number(table[key], what)
             if value < 0:
-                raise ConfigError(f"{what} must be >= 0 s, got {value}")
-            transfers[str(name)] = value
-    return transfers
+                raise ConfigError(f"{what} must be >= 0{unit}, got {value}")
+            values[str(name)] = value
+    return values
+
+
+def _parse_sway_weights(data: Mapping[str, Any], gaits: Mapping[str, tuple[tuple[str, ...], ...]],
+                        n_legs: int, where: str) -> dict[str, float]:
+    """The tables' ``sway_weight``: only for a gait of pairs (every swing leaves a support
+    line of two feet), where it is used."""
+    weights = _parse_table_values(data, "sway_weight", "", where)
+    for name in weights:
+        if any(n_legs - len(group) != 2 for group in gaits[name]):
+            raise ConfigError(f"{where}.gaits.{name}.sway_weight applies to a gait whose every "
+                              f"swing leaves two feet on the ground (a support line), got "
+                              f"groups {[list(g) for g in gaits[name]]}; remove it")
+    return weights
 
 
 def _parse_profiles(data: Mapping[str, Any], where: str) -> dict[str, ProfileConfig]:
@@ -148,7 +168,8 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
         stability_margin=_number(data.get("stability_margin", 0.015),
                                  f"{where}.stability_margin"),
         stance_profile=str(data.get("stance_profile", "rest")),
-        transfers=_parse_transfers(data, where))
+        transfers=_parse_table_values(data, "transfer_time", " s", where),
+        sway_weights=_parse_sway_weights(data, gaits, len(legs), where))
     if cfg.stance_profile not in STANCE_PROFILES:
         raise ConfigError(f"{where}.stance_profile must be one of {list(STANCE_PROFILES)}, got "
                           f"{cfg.stance_profile!r}")

@@ -22,11 +22,12 @@ from enum import Enum
 
 import numpy as np
 
-from crawler_motion.errors import GaitError
+from crawler_motion.errors import GaitError, KinematicsError
 from crawler_motion.model.config import Config
+from crawler_motion.model.kinematics import inverse_kinematics
 from crawler_motion.motion.contact import rolled_centres
 from crawler_motion.motion.continuous import continuous_swing_segments
-from crawler_motion.motion.sway import support_margin, sway_target
+from crawler_motion.motion.sway import convex_hull, line_sways, support_margin, sway_target
 from crawler_motion.motion.trajectory import (
     Piecewise,
     Segment,
@@ -43,6 +44,13 @@ from crawler_motion.motion.walk_params import WalkParams
 DWELL_EPS = 1e-12
 #: Rounding allowance of the stability margin check [m].
 MARGIN_TOLERANCE = 1e-9
+#: Reach kept by a foot target at the ends of a swing and of a transfer when the body moves
+#: along its support line [m] (the foot's roll and the rest of the slot: a few mm).
+REACH_MARGIN = 0.005
+#: Shares of the way from the nearest points of the support lines to the sways that move the
+#: body along them, tried in order (`SlotBuilder._line_sways`); if none fits, the nearest
+#: points (the sway without a ``sway_weight``).
+LINE_SWAY_SHARES = (1.0, 0.75, 0.5, 0.25)
 
 
 class StanceProfile(str, Enum):
@@ -193,9 +201,12 @@ class SlotBuilder:
         if not plan.sways:
             return np.zeros(2), np.zeros(2), np.zeros(2)
         margin = float(p.margin) if is_crawl(self.cfg, p.gait) else 0.0  # type: ignore[arg-type]
+        following = np.isin(np.arange(self.robot.n_legs), plan.following)
+        weight = self.cfg.gait.sway_weights.get(p.gait)
+        if weight is not None and swinging.any():  # support lines: move along them
+            return self._line_sways(plan, swinging, following, ground, weight)
         s_mid = (self._sway if not swinging.any() else
                  sway_target([ground[1][~swinging, :2]], margin))
-        following = np.isin(np.arange(self.robot.n_legs), plan.following)
         s_fin = np.zeros(2) if plan.final else sway_target([ground[2][~following, :2]], margin)
         for value in (s_mid, s_fin):
             if value is None:
@@ -203,6 +214,42 @@ class SlotBuilder:
                                 f"inside its support triangles: use a smaller margin or "
                                 f"stride, or a wider stance")
         return self._sway, s_mid, s_fin  # type: ignore[return-value]
+
+    def _line_sways(self, plan: SlotPlan, swinging: np.ndarray, following: np.ndarray,
+                    ground: list[np.ndarray], weight: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sways of a gait of pairs that moves the body along its support lines
+        (`sway.line_sways`), taken from the nearest points of the lines (the sway without
+        ``weight``) towards them only as far as every foot target at the swing's and the
+        slot's end keeps `REACH_MARGIN` of reach (the largest of `LINE_SWAY_SHARES` that
+        does), so the walk reaches whatever it reaches without it."""
+        line = convex_hull(ground[1][~swinging, :2])
+        following_line = np.zeros((2, 2)) if plan.final else np.resize(
+            convex_hull(ground[2][~following, :2]), (2, 2))
+        near_fin = np.zeros(2) if plan.final else sway_target([following_line], 0.0)
+        near = (sway_target([line], 0.0), near_fin)
+        travel = np.mean(plan.offsets[2][~following] - plan.offsets[1][~following], axis=0)
+        best = line_sways(np.resize(line, (2, 2)), following_line, travel, weight)
+        for share in LINE_SWAY_SHARES:
+            mid, fin = (n + share * (b - n) for n, b in zip(near, best, strict=True))
+            if self._reachable(ground[1], mid) and self._reachable(ground[2], fin):
+                return self._sway, mid, fin
+        return self._sway, near[0], near[1]
+
+    def _reachable(self, ground: np.ndarray, sway: np.ndarray) -> bool:
+        """True when every foot at ``ground`` ``(n_legs, 3)`` [m] seen from a body swayed by
+        ``sway`` [m], pushed `REACH_MARGIN` further out from its hip, is within its leg's
+        workspace and joint limits (the one IK)."""
+        feet = ground.copy()
+        feet[:, :2] -= sway
+        out = feet[:, :2] - self.robot.hips[:, :2]
+        norm = np.maximum(np.linalg.norm(out, axis=-1, keepdims=True), 1e-12)
+        feet[:, :2] += REACH_MARGIN * out / norm
+        try:
+            inverse_kinematics(self.robot, feet)
+        except KinematicsError:
+            return False
+        return True
 
 
 def check_margin(slot: Slot, margin: float, cfg: Config, samples: int = 41) -> None:

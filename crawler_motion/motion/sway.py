@@ -127,6 +127,43 @@ def _nearest_on_segment(ends: np.ndarray, centre: np.ndarray | None) -> np.ndarr
     return (a + u * d) / SWAY_SCALE
 
 
+def line_sways(first: np.ndarray, second: np.ndarray, travel: np.ndarray, weight: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The sways ``(2,)`` [m] of a gait standing on support lines (the diagonal pairs): ``s1``
+    on the segment ``first`` ``(2, 2)`` (the support at the end of a swing) and ``s2`` on
+    ``second`` (the next support, at the end of the transfer after it; a point when both ends
+    are equal), minimising the body's travel over the ground in the transfer,
+    ``|travel - (s2 - s1)|²`` (``travel`` [m]: the planned motion of the contact points
+    relative to the body in it), plus ``weight`` times ``|S s1|² + |S s2|²`` (`SWAY_SCALE`).
+
+    The body keeps its support line under it and moves along it during the swing, so the
+    transfer carries only what the line's direction cannot (walking forward, the lateral sway
+    zig-zags along the diagonals); a large ``weight`` gives the nearest points of the segments
+    (no motion along the line, the whole step in the transfer)."""
+    a1, d1 = first[0], first[1] - first[0]
+    a2, d2 = second[0], second[1] - second[0]
+    sq = SWAY_SCALE ** 2
+    r0 = travel - a2 + a1  # the transfer's travel with both sways at the segments' first ends
+    hess = np.array([[d1 @ d1 + weight * (sq @ (d1 * d1)), -(d1 @ d2)],
+                     [-(d1 @ d2), d2 @ d2 + weight * (sq @ (d2 * d2))]])
+    hess += 1e-15 * np.eye(2)  # a point (d = 0) keeps its one position
+    grad = np.array([r0 @ d1 + weight * (sq @ (a1 * d1)), -(r0 @ d2) + weight * (sq @ (a2 * d2))])
+
+    def cost(u: float, w: float) -> float:
+        x = np.array([u, w])
+        return float(x @ hess @ x + 2.0 * grad @ x)
+
+    # a convex quadratic on the unit square: its free minimum if inside, else on an edge
+    candidates = [tuple(np.clip(np.linalg.solve(hess, -grad), 0.0, 1.0))]
+    for fixed in (0.0, 1.0):
+        candidates.append((fixed, float(np.clip(-(grad[1] + hess[1, 0] * fixed) / hess[1, 1],
+                                                0.0, 1.0))))
+        candidates.append((float(np.clip(-(grad[0] + hess[0, 1] * fixed) / hess[0, 0],
+                                         0.0, 1.0)), fixed))
+    u, w = min(candidates, key=lambda c: cost(*c))
+    return a1 + u * d1, a2 + w * d2
+
+
 def creep_order(feet: np.ndarray, heading: float) -> tuple[int, ...]:
     """Leg indices in swing order for travel towards ``heading`` [rad] (base_link): hind-left,
     front-left, hind-right, front-right relative to the direction of travel, from the standing

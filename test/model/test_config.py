@@ -198,6 +198,15 @@ BAD = [
      ["gait.gaits.diagonal.transfer_time", ">= 0"]),
     ("transfer as text", {"gait.gaits.wave.transfer_time": "long"},
      ["gait.gaits.wave.transfer_time"]),
+    ("negative sway weight", {"gait.gaits.diagonal_sway.sway_weight": -0.01},
+     ["gait.gaits.diagonal_sway.sway_weight", ">= 0"]),
+    ("sway weight as text", {"gait.gaits.diagonal_sway.sway_weight": "some"},
+     ["gait.gaits.diagonal_sway.sway_weight"]),
+    ("sway weight of a crawl", {"gait.gaits.wave.sway_weight": 0.02},
+     ["gait.gaits.wave.sway_weight", "two feet on the ground", "remove it"]),
+    ("sway weight with a three-foot swing", {GROUPS: [["rf"], ["lb"], ["lf", "rb"]],
+                                             "gait.gaits.diagonal.sway_weight": 0.02},
+     ["gait.gaits.diagonal.sway_weight", "support line"]),
     ("unknown gait", {"gait.gait": "gallop"}, ["gait.gait", "gallop", "diagonal"]),
     ("unknown profile", {"gait.profile": "jerky"}, ["gait.profile", "jerky", "smooth"]),
     # NaN and infinity
@@ -301,6 +310,7 @@ GOOD = [
     ("three groups", {GROUPS: [["rf"], ["lb"], ["lf", "rb"]]}),
     ("a diagonal transfer", {"gait.gaits.diagonal.transfer_time": 0.3}),
     ("no diagonal transfer", {"gait.gaits.diagonal.transfer_time": 0.0}),
+    ("a diagonal sway weight of 0", {"gait.gaits.diagonal.sway_weight": 0.0}),
 ]
 
 
@@ -318,9 +328,13 @@ def test_valid_variants_load(changes, tmp_path):
     if GROUPS in changes:
         assert cfg.gait.gaits["diagonal"] == (("rf",), ("lb",), ("lf", "rb"))
     key = "gait.gaits.diagonal.transfer_time"
-    shipped = {"diagonal_sway": 0.3}  # the shipped config's swaying diagonal gait
+    shipped = {"diagonal_sway": 0.35}  # the shipped config's swaying diagonal gait
     assert cfg.gait.transfers == ({**shipped, "diagonal": changes[key]} if key in changes
                                   else shipped)
+    key = "gait.gaits.diagonal.sway_weight"
+    shipped = {"diagonal_sway": 0.025}
+    assert cfg.gait.sway_weights == ({**shipped, "diagonal": changes[key]} if key in changes
+                                     else shipped)
 
 
 def test_the_body_pose_limits_load():

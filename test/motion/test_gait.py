@@ -808,6 +808,69 @@ def test_a_diagonal_walk_with_a_transfer_sways_onto_each_support_line(stance_tim
         assert abs(cross) / np.linalg.norm(b - a) <= 1e-9, (k, s.kind)
 
 
+def transfer_travels(cfg, p: WalkParams) -> list[float]:
+    """Largest travel [m] of a stance contact point relative to the body in each transfer."""
+    out = []
+    for s in iter_walk(cfg, p, 2):
+        if s.group and s.duration > s.swing_time:
+            ends = [np.stack([c.evaluate(t)[0][0, :2] for c in s.contacts])
+                    for t in (s.swing_time, s.duration)]
+            out.append(float(np.linalg.norm(ends[1] - ends[0], axis=-1).max()))
+    return out
+
+
+NEAREST_SWAY = replace(CFG, gait=replace(CFG.gait, sway_weights={}))  # no sway_weight
+
+
+@pytest.mark.parametrize("overrides", [
+    {}, {"heading": math.pi}, {"heading": math.pi / 2}, {"stride": 0.0, "turn": 0.2},
+    {"stride": 0.04, "heading": 0.7, "turn": -0.2}])
+def test_the_swaying_diagonal_gait_moves_along_its_support_lines(overrides):
+    p = params(gait="diagonal_sway", **overrides)
+    slots = list(iter_walk(CFG, p, 2))
+    legs, starts = join(slots)
+    for k, s in enumerate(slots):
+        if not s.group:
+            continue
+        # The body centre is on the line of the two stance feet at the end of the swing and
+        # throughout it; walking and turning, the line turns under the body as it moves along
+        # it (0.7 mm here, 1.1 mm at the full stride and turn; the nearest point: 0.2 mm).
+        for f in np.linspace(0.0, 1.0, 5):
+            pos = states(legs, np.array([starts[k] + f * s.swing_time]))[0][0]
+            a, b = (pos[i, :2] for i in range(4) if i not in s.group)
+            cross = (b - a)[0] * (-a)[1] - (b - a)[1] * (-a)[0]
+            tolerance = 1e-9 if f == 1.0 or not p.turn else 1e-3
+            assert abs(cross) / np.linalg.norm(b - a) <= tolerance, (k, s.kind, f)
+    assert junction_jumps(join(slots, "legs")[0])[2] <= 1e-6  # C²: no jump of acceleration
+    # It moves along them so the transfers carry less (walking forward 45 mm each without).
+    new, old = transfer_travels(CFG, p), transfer_travels(NEAREST_SWAY, p)
+    assert max(new) <= max(old) + 1e-12
+
+
+def test_walking_forward_the_swaying_diagonal_transfers_carry_half_as_much():
+    p = params(gait="diagonal_sway")
+    new, old = transfer_travels(CFG, p), transfer_travels(NEAREST_SWAY, p)
+    assert max(old) == pytest.approx(0.0435, abs=5e-4)
+    assert max(new[1:-1]) <= 0.6 * max(old)  # steady slots
+
+
+@pytest.mark.parametrize(("stride", "heading", "body_height", "lateral"), [
+    (0.06, 0.0, 0.07, 0.0196),  # the default walk: the whole way to the optimum
+    (0.08, 0.0, 0.07, 0.0198),  # at the edge of reach: part of the way (26 mm at the optimum)
+    (0.06, 0.0, 0.09, 0.0052),  # the highest body: little reach to spare
+    (0.08, math.pi, 0.09, 0.0005),
+])
+def test_the_line_sway_stops_where_the_legs_run_out_of_reach(stride, heading, body_height,
+                                                              lateral):
+    # Every walk the nearest-point sway could walk stays possible.
+    p = params(gait="diagonal_sway", stride=stride, heading=heading, body_height=body_height)
+    plan_walk(NEAREST_SWAY, p, 2)
+    plan = plan_walk(CFG, p, 2)
+    found = max(abs(float(s.sway.evaluate(s.swing_time)[0][0][1])) for s in plan.slots
+                if s.group)
+    assert found == pytest.approx(lateral, abs=2e-4)
+
+
 # --- the continuous stance profile ------------------------------------------------------------
 
 def junction_jumps(legs: tuple[Piecewise, ...]) -> tuple[float, float, float]:

@@ -79,3 +79,35 @@ def test_the_crawl_keeps_its_stance_feet_loaded_and_in_place(overrides, foot):
     assert s["stance_contact_loss"] <= 0.05, s
     assert s["stance_displacement"] <= foot, s
     assert max(s["roll_max"], s["pitch_max"]) <= math.radians(1.0), s
+
+
+@pytest.mark.parametrize(("overrides", "foot"), [
+    # Forward and backward the body zig-zags along its support lines (sway_weight): the foot
+    # centre's 3.1 mm of planned roll (the lateral sway turns the tibia) count in its travel.
+    pytest.param({}, 0.004, id="forward"),
+    pytest.param({"heading": math.pi}, 0.004, id="backward"),
+    # Sideways 3.8 mm of it is the planned roll (the stride turns the tibia; docs/gaits.md).
+    pytest.param({"heading": math.pi / 2}, 0.005, id="sideways"),
+    pytest.param({"stride": 0.0, "turn": 0.2}, 0.003, id="turning"),
+])
+def test_the_swaying_diagonal_keeps_its_stance_feet_loaded_and_in_place(overrides, foot):
+    # Before it moved along its support lines (0.3 s transfers carrying the whole step):
+    # forward 8.3 mm of slip per stance (max 9.6), 22 % stance contact loss.
+    s = summary(gait="diagonal_sway", **overrides)
+    assert s["stance_slip_mean"] <= SLIP_MEAN, s
+    assert s["stance_slip_max"] <= SLIP_MAX, s
+    assert s["stance_contact_loss"] <= 0.05, s
+    assert s["stance_displacement"] <= foot, s
+    assert max(s["roll_max"], s["pitch_max"]) <= math.radians(5.0), s
+    assert s["midswing_contact"] <= 0.02, s
+    assert abs(s["lateral_drift"]) <= 0.005, s
+    if overrides.get("stride") == 0.0:
+        assert s["turn_ratio"] == pytest.approx(1.0, abs=0.05), s
+    else:
+        assert 0.95 <= s["advance_ratio"] <= 1.05, s
+
+
+def test_the_swaying_diagonal_crosses_the_2cm_relief():
+    s = evaluate_walk(CFG, WalkParams.defaults(CFG.gait, gait="diagonal_sway"), steps=3,
+                      world="relief_2cm").summary()
+    assert s["advance_ratio"] >= 0.90, s
