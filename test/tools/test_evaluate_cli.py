@@ -16,7 +16,7 @@ METRICS = (
     "lateral_drift", "yaw_drift",  # drifts
     "turn_ratio", "planned_turn", "turn",  # turn achieved vs commanded
     "slip_mean", "slip_max",  # loaded foot slip
-    "stance_displacement", "stance_contact_loss", "midswing_contact",
+    "stance_displacement", "centre_travel", "stance_contact_loss", "midswing_contact",
     "roll_max", "pitch_max", "height_variation", "body_contact", "torque_p99",
 )
 

@@ -49,7 +49,8 @@ class CycleMetrics:
     slip_max: float
     stance_slip_mean: float  # loaded slip distance per stance [m]
     stance_slip_max: float
-    stance_displacement: float  # mean horizontal foot travel per stance
+    stance_displacement: float  # mean net travel of the contact point over the ground per stance
+    centre_travel: float  # mean horizontal travel of the foot centre per stance (with the roll)
     stance_contact_loss: float  # share of stance samples
     midswing_contact: float  # share of mid-swing samples
     roll_max: float
@@ -122,34 +123,37 @@ def evaluate_walk(cfg: Config, params: WalkParams, steps: int = 4,
     path = no_slip_path(plan, rec.time, phases.stance)
     rpy = attitude(rec.base[:, 3:])
     runs = stance_runs(phases.stance)
-    slip = _contact_slip(rec, sm.foot_radius)
+    contact = _contact_velocity(rec, sm.foot_radius)
     cycles = []
     for k0, k1 in steady_cycles(plan, rec.time):
-        cycles.append(_cycle(rec, phases, path, rpy, runs, slip, threshold, k0, k1))
+        cycles.append(_cycle(rec, phases, path, rpy, runs, contact, threshold, k0, k1))
     return EvalResult(world=sm.world.source, medium=sm.settings.water.medium.value,
                       params=asdict(plan.slots[0].params), steps=steps,
                       sim_time=float(plan.duration), wall_time=wall, cycles=cycles)
 
 
-def _contact_slip(rec: Recording, radius: float) -> np.ndarray:
-    """Speed of each foot's contact point parallel to the ground ``(n, n_legs)`` [m/s]."""
+def _contact_velocity(rec: Recording, radius: float) -> np.ndarray:
+    """Velocity of each foot's contact point parallel to the ground ``(n, n_legs, 2)``
+    [m/s]: the material point of the sphere touching the ground (zero when it rolls)."""
     lin, ang = rec.foot_velocity[..., :3], rec.foot_velocity[..., 3:]
-    vx = lin[..., 0] - radius * ang[..., 1]  # v + w x (0, 0, -r)
-    vy = lin[..., 1] + radius * ang[..., 0]
-    return np.hypot(vx, vy)
+    return np.stack((lin[..., 0] - radius * ang[..., 1],  # v + w x (0, 0, -r)
+                     lin[..., 1] + radius * ang[..., 0]), axis=-1)
 
 
 def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray, runs: list,
-           slip: np.ndarray, threshold: float, k0: int, k1: int) -> CycleMetrics:
+           contact: np.ndarray, threshold: float, k0: int, k1: int) -> CycleMetrics:
     part = slice(k0, k1)
+    slip = np.hypot(contact[..., 0], contact[..., 1])
     loaded = rec.loads[part] > threshold
     stance = phases.stance[part]
     swing = phases.swing_phase[part]
     mid = (swing >= MID_SWING[0]) & (swing <= MID_SWING[1])
     slips = slip[part][loaded & stance]
-    travel = [float(np.hypot(*(rec.feet[b, leg, :2] - rec.feet[a, leg, :2])))
+    centre = [float(np.hypot(*(rec.feet[b, leg, :2] - rec.feet[a, leg, :2])))
               for leg, a, b in runs if k0 <= a < k1]
     dt = np.gradient(rec.time)
+    travel = [float(np.hypot(*np.trapezoid(contact[a:b + 1, leg], rec.time[a:b + 1], axis=0)))
+              for leg, a, b in runs if k0 <= a < k1]
     loaded_all = rec.loads > threshold
     per_stance = [float(np.sum((slip[a:b + 1, leg] * dt[a:b + 1])[loaded_all[a:b + 1, leg]]))
                   for leg, a, b in runs if k0 <= a < k1]
@@ -160,6 +164,7 @@ def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray
         stance_slip_mean=float(np.mean(per_stance)) if per_stance else 0.0,
         stance_slip_max=float(np.max(per_stance)) if per_stance else 0.0,
         stance_displacement=float(np.mean(travel)) if travel else 0.0,
+        centre_travel=float(np.mean(centre)) if centre else 0.0,
         stance_contact_loss=float((stance & ~loaded).sum() / max(stance.sum(), 1)),
         midswing_contact=float((mid & (rec.loads[part] > 0.0)).sum() / max(mid.sum(), 1)),
         roll_max=float(np.abs(rpy[part, 0]).max()),
@@ -175,6 +180,7 @@ TABLE_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
     ("yaw °", "yaw_drift", 180 / math.pi, "{:5.1f}"), ("turn", "turn_ratio", 1.0, "{:5.2f}"),
     ("slip mm", "stance_slip_mean", 1e3, "{:5.1f}"), ("max", "stance_slip_max", 1e3, "{:5.1f}"),
     ("foot mm", "stance_displacement", 1e3, "{:5.1f}"),
+    ("ctr mm", "centre_travel", 1e3, "{:5.1f}"),
     ("loss %", "stance_contact_loss", 100.0, "{:5.1f}"),
     ("scuff %", "midswing_contact", 100.0, "{:5.1f}"),
     ("roll °", "roll_max", 180 / math.pi, "{:5.1f}"),

@@ -108,3 +108,29 @@ def test_stance_runs_and_attitude():
 def test_replay_options_are_validated():
     with pytest.raises(ValueError, match="sample_period"):
         ReplayOptions(control_period=0.01, sample_period=0.02)
+
+
+@pytest.mark.parametrize(("rate", "spin", "displacement"), [
+    (0.01, 0.01 / 0.008, 0.0),  # rolls without sliding: the centre moves, the contact does not
+    (0.01, 0.0, 0.01),  # slides without turning: 10 mm in 1 s
+    (0.0, 1.0, 0.008),  # spins in place: the contact point scrubs r per radian
+    (-0.01, -0.01 / 0.008, 0.0),  # rolls back
+])
+def test_the_contact_point_of_a_rolling_foot_does_not_move(rate, spin, displacement):
+    """A sphere of radius 8 mm whose centre moves at ``rate`` [m/s] along x while it turns at
+    ``spin`` [rad/s] about y for 1 s: its contact point's net travel over the ground."""
+    from crawler_motion.sim.seabed.evaluate import _contact_velocity
+    from crawler_motion.sim.seabed.replay import Recording
+
+    t = np.linspace(0.0, 1.0, 501)
+    n = t.size
+    velocity = np.zeros((n, 1, 6))
+    velocity[:, 0, 0], velocity[:, 0, 4] = rate, spin
+    feet = np.zeros((n, 1, 3))
+    feet[:, 0, 0] = rate * t
+    rec = Recording(time=t, base=np.zeros((n, 7)), feet=feet, foot_velocity=velocity,
+                    loads=np.ones((n, 1)), body_contact=np.zeros(n, dtype=bool),
+                    torque=np.zeros((n, 12)))
+    contact = _contact_velocity(rec, 0.008)
+    travel = np.trapezoid(contact[:, 0], t, axis=0)
+    assert float(np.hypot(*travel)) == pytest.approx(displacement, abs=1e-12)
