@@ -66,45 +66,34 @@ def test_turn_in_place_turns_as_commanded(gait, tolerance):
 FOOT = 0.003
 
 
-@pytest.mark.parametrize("overrides", [
-    pytest.param({}, id="forward"),
-    pytest.param({"heading": math.pi}, id="backward"),
-    pytest.param({"heading": math.pi / 2}, id="sideways"),
-    pytest.param({"stride": 0.0, "turn": 0.2}, id="turning"),
-    pytest.param({"stride": 0.0, "turn": -0.2}, id="turning-clockwise"),
+@pytest.mark.parametrize(("gait", "overrides", "tilt"), [
+    # the crawl: before its transfers were sized to the body's travel in them (and a crawl
+    # turning on the spot chose its swing order), slip 5.1-10.6 mm per stance, loss 5.5-12 %
+    pytest.param("wave", {}, 1.0, id="wave-forward"),
+    pytest.param("wave", {"heading": math.pi}, 1.0, id="wave-backward"),
+    pytest.param("wave", {"heading": math.pi / 2}, 1.0, id="wave-sideways"),
+    pytest.param("wave", {"stride": 0.0, "turn": 0.2}, 1.0, id="wave-turning"),
+    pytest.param("wave", {"stride": 0.0, "turn": -0.2}, 1.0, id="wave-turning-clockwise"),
+    # the swaying diagonal: before it moved along its support lines (0.3 s transfers carrying
+    # the whole step), forward 8.3 mm of slip per stance (max 9.6), 22 % contact loss; the
+    # lateral sway turns the tibia, so the sphere rolls 3.1 mm by plan (centre travel 3.4 mm)
+    pytest.param("diagonal_sway", {}, 5.0, id="diagonal-sway-forward"),
+    pytest.param("diagonal_sway", {"heading": math.pi}, 5.0, id="diagonal-sway-backward"),
+    pytest.param("diagonal_sway", {"heading": math.pi / 2}, 5.0, id="diagonal-sway-sideways"),
+    pytest.param("diagonal_sway", {"stride": 0.0, "turn": 0.2}, 5.0,
+                 id="diagonal-sway-turning"),
 ])
-def test_the_crawl_keeps_its_stance_feet_loaded_and_in_place(overrides):
-    # Before the transfers were sized to the body's travel in them (and a crawl turning on the
-    # spot chose its swing order): slip 5.1-10.6 mm per stance, contact loss 5.5-12 %.
-    s = summary(gait="wave", **overrides)
+def test_stance_feet_stay_loaded_and_in_place(gait, overrides, tilt):
+    s = summary(gait=gait, **overrides)
     assert s["stance_slip_mean"] <= SLIP_MEAN, s
     assert s["stance_slip_max"] <= SLIP_MAX, s
     assert s["stance_contact_loss"] <= 0.05, s
     assert s["stance_displacement"] <= FOOT, s
-    assert max(s["roll_max"], s["pitch_max"]) <= math.radians(1.0), s
-
-
-@pytest.mark.parametrize("overrides", [
-    # Forward and backward the body zig-zags along its support lines (sway_weight); the lateral
-    # sway turns the tibia, so the sphere rolls 3.1 mm by plan (its centre's travel: 3.4 mm).
-    pytest.param({}, id="forward"),
-    pytest.param({"heading": math.pi}, id="backward"),
-    pytest.param({"heading": math.pi / 2}, id="sideways"),
-    pytest.param({"stride": 0.0, "turn": 0.2}, id="turning"),
-])
-def test_the_swaying_diagonal_keeps_its_stance_feet_loaded_and_in_place(overrides):
-    # Before it moved along its support lines (0.3 s transfers carrying the whole step):
-    # forward 8.3 mm of slip per stance (max 9.6), 22 % stance contact loss.
-    s = summary(gait="diagonal_sway", **overrides)
-    assert s["stance_slip_mean"] <= SLIP_MEAN, s
-    assert s["stance_slip_max"] <= SLIP_MAX, s
-    assert s["stance_contact_loss"] <= 0.05, s
-    assert s["stance_displacement"] <= FOOT, s
-    assert max(s["roll_max"], s["pitch_max"]) <= math.radians(5.0), s
+    assert max(s["roll_max"], s["pitch_max"]) <= math.radians(tilt), s
     assert s["midswing_contact"] <= 0.02, s
     assert abs(s["lateral_drift"]) <= 0.005, s
     if overrides.get("stride") == 0.0:
-        assert s["turn_ratio"] == pytest.approx(1.0, abs=0.05), s
+        assert s["turn_ratio"] == pytest.approx(1.0, abs=0.10 if gait == "wave" else 0.05), s
     else:
         assert 0.95 <= s["advance_ratio"] <= 1.05, s
 
