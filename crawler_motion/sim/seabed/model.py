@@ -213,6 +213,12 @@ def build_mjcf(robot: RobotConfig, settings: SimSettings | None = None,
     return ET.tostring(root, encoding="unicode")
 
 
+#: Rays probing the ground under the feet at the start start this far above them [m].
+SPAWN_PROBE = 1.0
+#: The robot is raised at the start only where the ground needs more than this [m].
+SPAWN_TOLERANCE = 1e-6
+
+
 class SeabedModel:
     """A compiled seabed model and the indices of the robot's parts in it."""
 
@@ -229,6 +235,7 @@ class SeabedModel:
             raise ConfigError(f"world file {self.world.source}: not valid MJCF ({first})") from exc
         m, name = self.model, mujoco.mjtObj
         self.base_body = mujoco.mj_name2id(m, name.mjOBJ_BODY, "base_link")
+        self._base_z = int(m.jnt_qposadr[mujoco.mj_name2id(m, name.mjOBJ_JOINT, "base")]) + 2
         joints = [mujoco.mj_name2id(m, name.mjOBJ_JOINT, j) for j in robot.joint_names]
         self.qpos_index = np.array([m.jnt_qposadr[j] for j in joints])
         self.dof_index = np.array([m.jnt_dofadr[j] for j in joints])
@@ -261,7 +268,28 @@ class SeabedModel:
         (``(n_legs, 3)`` [rad]; default: the standing pose)."""
         data = mujoco.MjData(self.model)
         self.set_joints(data, self.standing_pose() if q is None else q)
+        self._clear_ground(data)
         return data
+
+    def _clear_ground(self, data: mujoco.MjData) -> None:
+        """Raise the robot where the world's ground under a foot is above z = 0, so that every
+        foot starts ``spawn_clearance`` above it (a foot started inside a heightfield or a rock
+        is thrown out by a contact force of kilonewtons)."""
+        groups = np.ones(6, dtype=np.uint8)
+        groups[self.settings.robot_group] = 0
+        feet = data.site_xpos[self.foot_sites]
+        top = float(feet[:, 2].max()) + SPAWN_PROBE
+        geom = np.zeros(1, dtype=np.int32)
+        lift = 0.0
+        for x, y, z in feet:
+            dist = mujoco.mj_ray(self.model, data, np.array([x, y, top]),
+                                 np.array([0.0, 0.0, -1.0]), groups, 1, -1, geom)
+            if dist >= 0.0:  # -1: no ground below the foot
+                ground = top - dist
+                lift = max(lift, ground + self.foot_radius + self.settings.spawn_clearance - z)
+        if lift > SPAWN_TOLERANCE:
+            data.qpos[self._base_z] += lift
+            mujoco.mj_forward(self.model, data)
 
     def standing_pose(self) -> np.ndarray:
         """The configured standing joint angles ``(n_legs, 3)`` [rad]."""

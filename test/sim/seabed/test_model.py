@@ -141,3 +141,22 @@ def test_water_settings_are_validated(kwargs, ok):
     else:
         with pytest.raises(ConfigError):
             WaterSettings(**kwargs)
+
+
+@pytest.mark.parametrize(("world", "start", "raised"), [
+    ("flat", (0.0, 0.0, 0.0), False),
+    ("flat", (0.3, -0.2, 0.5), False),
+    ("step", (0.0, 0.0, 0.0), False),  # the step is ahead of the feet
+    ("relief_2cm", (0.0, 0.0, 0.0), True),
+    ("relief_2cm", (0.1, 0.05, 0.0), True),  # a foot started 11 mm inside: thrown by 3 kN
+    ("rocks", (0.3, -0.2, 0.5), True),
+])
+def test_the_robot_starts_with_every_foot_above_the_ground(cfg, world, start, raised):
+    flat = SeabedModel(cfg.robot, SimSettings(start_pose=start), "flat").make_data()
+    sm = SeabedModel(cfg.robot, SimSettings(start_pose=start), world)
+    data = sm.make_data()
+    assert bool(data.qpos[2] > flat.qpos[2] + 1e-4) is raised
+    assert data.qpos[2] == pytest.approx(flat.qpos[2]) or raised
+    assert all(data.contact[k].dist >= -1e-9 for k in range(data.ncon))
+    sm.settle(data, 0.2)
+    assert float(np.abs(data.efc_force).max()) < 20.0  # the robot weighs ~9 N in water
