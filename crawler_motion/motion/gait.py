@@ -62,7 +62,7 @@ class GaitSequencer:
         self._order = tuple(range(self.n_groups))  # swing order of the walk (gait table indices)
         self._count = 0  # slots done in the current phase
         self._slot_params = self.params  # parameters of the last planned slot
-        self._builder = SlotBuilder(cfg)  # joins each slot's trajectories to the last
+        self._builder = SlotBuilder(cfg, check_trajectories)  # joins the slots' trajectories
         self._rate: tuple[object, float] = ((), 0.0)  # (walk key, transfer rate [s/m^0.5])
 
     def __copy__(self) -> GaitSequencer:

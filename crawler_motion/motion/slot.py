@@ -17,13 +17,15 @@ Time profiles of the body within a slot (`StanceProfile`):
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
+from typing import Any
 
 import numpy as np
 
 from crawler_motion.errors import GaitError, KinematicsError
-from crawler_motion.model.config import Config
+from crawler_motion.model.config import Config, RobotConfig
 from crawler_motion.model.kinematics import inverse_kinematics
 from crawler_motion.motion.contact import rolled_centres
 from crawler_motion.motion.continuous import continuous_swing_segments
@@ -51,6 +53,8 @@ REACH_MARGIN = 0.005
 #: body along them, tried in order (`SlotBuilder._line_sways`); if none fits, the nearest
 #: points (the sway without a ``sway_weight``).
 LINE_SWAY_SHARES = (1.0, 0.75, 0.5, 0.25)
+#: A check of a slot's legs (robot, legs, what) that raises GaitError: `gait.check_trajectories`.
+SlotCheck = Callable[[RobotConfig, Sequence[Any], str], None]
 
 
 class StanceProfile(str, Enum):
@@ -107,9 +111,13 @@ class SlotPlan:
 class SlotBuilder:
     """Builds slots one after the other, joining each to the last (see the module docstring)."""
 
-    def __init__(self, cfg: Config) -> None:
+    def __init__(self, cfg: Config, check: SlotCheck | None = None) -> None:
         self.cfg = cfg
         self.robot = cfg.robot
+        #: Checks a slot's legs against the limits (`gait.check_trajectories`; raises
+        #: GaitError): a slot whose body moves along its support lines and fails it is built
+        #: again with the nearest points of the lines.
+        self._check = check
         self.reset(self.robot.standing_feet(None))
 
     def reset(self, standing: np.ndarray) -> None:
@@ -123,13 +131,30 @@ class SlotBuilder:
         """The slot of ``plan`` with parameters ``p``, per-leg stride vectors ``stride``
         ``(n_legs, 2)`` [m] and ``speed``: the stance feet's steady travel per second as a
         share of their stride [1/s] (continuous stance)."""
+        slot, state = self._build(plan, p, stride, speed, LINE_SWAY_SHARES)
+        rest = LINE_SWAY_SHARES[LINE_SWAY_SHARES.index(state[-1]) + 1:] if state[-1] else None
+        shares = [] if rest is None else [*rest, 0.0]
+        while shares and self._check is not None:
+            try:
+                self._check(self.robot, slot.legs, "the slot")
+                break
+            except GaitError:  # e.g. a joint rate: less of the way along the lines
+                slot, state = self._build(plan, p, stride, speed, (shares.pop(0),))
+        self._touch, self._centres, self._sway, self._velocity, _ = state
+        return slot
+
+    def _build(self, plan: SlotPlan, p: WalkParams, stride: np.ndarray, speed: float,
+               shares: tuple[float, ...]) -> tuple[Slot, tuple[Any, ...]]:
+        """`build` without keeping its state: the slot and the builder's state after it
+        (touch-downs, centres, sway, velocities, and the share of the way along the support
+        lines taken, of ``shares``: 0 for the nearest points or a gait without lines)."""
         robot = self.robot
         center = robot.standing_feet(p.body_height)
         swinging = np.isin(np.arange(robot.n_legs), plan.group)
         ground = [center.copy() for _ in range(3)]  # slot start, swing end, slot end
         for g, off in zip(ground, plan.offsets, strict=True):
             g[:, :2] += off
-        sway = self._sway_targets(plan, p, swinging, ground)
+        sway, along = self._sway_targets(plan, p, swinging, ground, shares)
         for g, s in zip(ground, sway, strict=True):
             g[:, :2] -= s
         touch = np.where(swinging[:, None], ground[1], self._touch)
@@ -155,9 +180,7 @@ class SlotBuilder:
         if is_crawl(self.cfg, p.gait):
             check_margin(slot, float(p.margin), self.cfg)  # type: ignore[arg-type]
         last = 2 if dwell else 1
-        self._touch, self._centres, self._sway = touch, centres[last], sway[last]
-        self._velocity = velocity_end
-        return slot
+        return slot, (touch, centres[last], sway[last], velocity_end, along)
 
     def transfer_travel(self, plan: SlotPlan, p: WalkParams) -> float:
         """Largest horizontal travel [m] of a contact point relative to the body over the
@@ -168,7 +191,7 @@ class SlotBuilder:
         ground = [center.copy() for _ in range(3)]
         for g, off in zip(ground, plan.offsets, strict=True):
             g[:, :2] += off
-        sway = self._sway_targets(plan, p, swinging, ground)
+        sway, _ = self._sway_targets(plan, p, swinging, ground)
         travel = (plan.offsets[2] - plan.offsets[1]) - (sway[2] - sway[1])
         return float(np.max(np.linalg.norm(travel, axis=-1)))
 
@@ -196,15 +219,19 @@ class SlotBuilder:
         return segments
 
     def _sway_targets(self, plan: SlotPlan, p: WalkParams, swinging: np.ndarray,
-                      ground: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Sway [m] at the slot's start, the swing's end and the slot's end (`motion.sway`)."""
+                      ground: list[np.ndarray],
+                      shares: tuple[float, ...] = LINE_SWAY_SHARES
+                      ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], float]:
+        """Sway [m] at the slot's start, the swing's end and the slot's end (`motion.sway`),
+        and the share of the way along the support lines taken (a gait with a
+        ``sway_weight``: the first of ``shares`` within reach; 0: the nearest points)."""
         if not plan.sways:
-            return np.zeros(2), np.zeros(2), np.zeros(2)
+            return (np.zeros(2), np.zeros(2), np.zeros(2)), 0.0
         margin = float(p.margin) if is_crawl(self.cfg, p.gait) else 0.0  # type: ignore[arg-type]
         following = np.isin(np.arange(self.robot.n_legs), plan.following)
         weight = self.cfg.gait.sway_weights.get(p.gait)
-        if weight is not None and swinging.any():  # support lines: move along them
-            return self._line_sways(plan, swinging, following, ground, weight)
+        if weight is not None and swinging.any() and any(shares):  # move along the lines
+            return self._line_sways(plan, swinging, following, ground, weight, shares)
         s_mid = (self._sway if not swinging.any() else
                  sway_target([ground[1][~swinging, :2]], margin))
         s_fin = np.zeros(2) if plan.final else sway_target([ground[2][~following, :2]], margin)
@@ -213,28 +240,28 @@ class SlotBuilder:
                 raise GaitError(f"the {p.gait} walk cannot keep the body centre {margin:g} m "
                                 f"inside its support triangles: use a smaller margin or "
                                 f"stride, or a wider stance")
-        return self._sway, s_mid, s_fin  # type: ignore[return-value]
+        return (self._sway, s_mid, s_fin), 0.0  # type: ignore[return-value]
 
     def _line_sways(self, plan: SlotPlan, swinging: np.ndarray, following: np.ndarray,
-                    ground: list[np.ndarray], weight: float
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    ground: list[np.ndarray], weight: float, shares: tuple[float, ...]
+                    ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], float]:
         """Sways of a gait of pairs that moves the body along its support lines
         (`sway.line_sways`), taken from the nearest points of the lines (the sway without
         ``weight``) towards them only as far as every foot target at the swing's and the
         slot's end keeps `REACH_MARGIN` of reach (the largest of `LINE_SWAY_SHARES` that
         does), so the walk reaches whatever it reaches without it."""
-        line = convex_hull(ground[1][~swinging, :2])
+        line = np.resize(convex_hull(ground[1][~swinging, :2]), (2, 2))
         following_line = np.zeros((2, 2)) if plan.final else np.resize(
             convex_hull(ground[2][~following, :2]), (2, 2))
         near_fin = np.zeros(2) if plan.final else sway_target([following_line], 0.0)
         near = (sway_target([line], 0.0), near_fin)
         travel = np.mean(plan.offsets[2][~following] - plan.offsets[1][~following], axis=0)
-        best = line_sways(np.resize(line, (2, 2)), following_line, travel, weight)
-        for share in LINE_SWAY_SHARES:
+        best = line_sways(line, following_line, travel, weight)
+        for share in shares:
             mid, fin = (n + share * (b - n) for n, b in zip(near, best, strict=True))
-            if self._reachable(ground[1], mid) and self._reachable(ground[2], fin):
-                return self._sway, mid, fin
-        return self._sway, near[0], near[1]
+            if share and self._reachable(ground[1], mid) and self._reachable(ground[2], fin):
+                return (self._sway, mid, fin), share
+        return (self._sway, near[0], near[1]), 0.0
 
     def _reachable(self, ground: np.ndarray, sway: np.ndarray) -> bool:
         """True when every foot at ``ground`` ``(n_legs, 3)`` [m] seen from a body swayed by

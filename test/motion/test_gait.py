@@ -871,6 +871,27 @@ def test_the_line_sway_stops_where_the_legs_run_out_of_reach(stride, heading, bo
     assert found == pytest.approx(lateral, abs=2e-4)
 
 
+
+@pytest.mark.parametrize(("stride", "heading", "turn", "body_height", "swing_time"), [
+    # a body moving along its lines adds joint rates: a slot the limits refuse so built is
+    # built again less of the way along them (here a knee at 10.0 rad/s, the limit)
+    (0.04, 0.68905, 0.1, 0.08, 0.4),
+    (0.06, 0.0, 0.0, 0.07, 0.6),
+    pytest.param(0.03125, 0.0, 0.0, 0.09, 0.4, marks=pytest.mark.xfail(
+        strict=True, raises=GaitError, reason="known: the slot after a line-swayed one starts "
+        "from its sway and may still exceed a joint rate (11.2 rad/s); the walk is refused "
+        "with the reason, as a walk beyond the limits")),
+])
+def test_a_walk_the_nearest_point_sway_can_walk_the_line_sway_can_too(stride, heading, turn,
+                                                                        body_height,
+                                                                        swing_time):
+    p = params(gait="diagonal_sway", stride=stride, heading=heading, turn=turn,
+               body_height=body_height, lift=0.03, swing_time=swing_time,
+               stance_time=swing_time + 2 * 0.25)
+    plan_walk(NEAREST_SWAY, p, 2)
+    plan_walk(CFG, p, 2)
+
+
 # --- the continuous stance profile ------------------------------------------------------------
 
 def junction_jumps(legs: tuple[Piecewise, ...]) -> tuple[float, float, float]:
