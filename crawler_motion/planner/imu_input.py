@@ -3,13 +3,16 @@
 With ``foothold_adapt`` and ``attitude_mode: imu`` the body's roll and pitch over each gait
 slot cancel the mean tilt the IMU measured over the slot before (`motion.attitude`). The IMU is
 taken as mounted aligned with ``base_link`` (there is no tf here to rotate it): its
-``orientation`` is the body's attitude against a gravity-aligned frame (REP-103, REP-145).
-A message without an orientation (``orientation_covariance[0] == -1``, the sensor_msgs
-convention) or with a quaternion that is not finite or has no direction is refused and counted.
+``orientation`` is the body's attitude against a gravity-aligned frame (REP-103, REP-145), and
+a message in another frame is refused. So is one without an orientation
+(``orientation_covariance[0] == -1``, the sensor_msgs convention), or whose quaternion is not
+finite or not unit (within `UNIT_TOLERANCE`); refusals are counted and logged.
 
-Without samples (no publisher, or none for `IMU_TIMEOUT`), a slot's attitude follows the plane
-of the stance feet instead, and ``missing`` says so in ``planner_status`` (key ``imu``) with a
-warning in the log; the walk goes on.
+A slot after one without a sample follows the plane of the stance feet instead; a walk in the
+``imu`` mode without a sample for `IMU_TIMEOUT` reports the IMU ``missing`` in
+``planner_status`` (key ``imu``) with a warning in the log; the walk goes on.
+Samples arriving while the mode is not ``imu`` are counted and set aside without the core's
+lock.
 """
 
 from __future__ import annotations
@@ -28,11 +31,17 @@ from crawler_motion.errors import CommandError
 from crawler_motion.model.rotations import quaternion_matrix, roll_pitch
 from crawler_motion.motion.attitude import AttitudeMode
 from crawler_motion.planner.core import PlannerCore
+from crawler_motion.planner.state import WALK_STATES
 
 #: QoS of the ``imu`` subscription (only fresh samples matter).
 IMU_QOS = qos_profile_sensor_data
 #: A walk in the ``imu`` mode without a sample for this long [s] reports the IMU missing.
 IMU_TIMEOUT = 0.5
+#: The IMU's frame: the body's (``base_link``, or a prefixed ``<robot>/base_link``; empty: the
+#: publisher's default, taken as the body's).
+IMU_FRAME = "base_link"
+#: Largest accepted deviation of the orientation quaternion's norm from 1.
+UNIT_TOLERANCE = 0.01
 
 
 def imu_roll_pitch(msg: Imu) -> tuple[float, float]:
@@ -41,14 +50,19 @@ def imu_roll_pitch(msg: Imu) -> tuple[float, float]:
     if msg.orientation_covariance[0] == -1.0:
         raise CommandError("imu has no orientation (orientation_covariance[0] = -1): "
                            "the imu attitude mode needs an IMU that estimates its attitude")
+    frame = msg.header.frame_id
+    if frame and frame != IMU_FRAME and not frame.endswith("/" + IMU_FRAME):
+        raise CommandError(f"imu in frame {frame!r}: the planner has no transform; publish it "
+                           f"in {IMU_FRAME!r} (an IMU mounted aligned with the body)")
     q = msg.orientation
     wxyz = (q.w, q.x, q.y, q.z)
     if not all(math.isfinite(v) for v in wxyz):
         raise CommandError(f"imu orientation {wxyz} (w, x, y, z) is not finite")
-    try:
-        return roll_pitch(quaternion_matrix(wxyz))
-    except ValueError as exc:
-        raise CommandError(f"imu orientation: {exc}; a unit quaternion is expected") from None
+    norm = math.sqrt(sum(v * v for v in wxyz))
+    if abs(norm - 1.0) > UNIT_TOLERANCE:
+        raise CommandError(f"imu orientation {wxyz} (w, x, y, z) has norm {norm:.4g}: a unit "
+                           f"quaternion is expected (within {UNIT_TOLERANCE:g})")
+    return roll_pitch(quaternion_matrix(wxyz))
 
 
 class ImuInput:
@@ -73,10 +87,17 @@ class ImuInput:
             return
         self.samples += 1
         self._last = time.monotonic()
+        if not self._wanted(self._core.walk.foothold):  # read without the lock: a flag
+            return
         with self._lock:
             footholds = self._core.walk.foothold
-            if footholds.settings.enabled and footholds.attitude.mode is AttitudeMode.IMU:
+            if self._wanted(footholds):
                 footholds.measure_attitude(roll, pitch)
+
+    @staticmethod
+    def _wanted(footholds: Any) -> bool:
+        """True when the walk's attitude takes the IMU (foothold_adapt, attitude_mode imu)."""
+        return bool(footholds.settings.enabled and footholds.attitude.mode is AttitudeMode.IMU)
 
     def report(self, now: float | None = None) -> dict[str, Any]:
         """``samples``, ``refused``, ``age`` of the last sample [s] (None: never) and
@@ -85,9 +106,7 @@ class ImuInput:
         now = time.monotonic() if now is None else now
         age = now - self._last
         with self._lock:
-            footholds = self._core.walk.foothold
-            wanted = (footholds.settings.enabled and footholds.attitude.mode is AttitudeMode.IMU
-                      and self._core.state == "WALKING")
+            wanted = self._wanted(self._core.walk.foothold) and self._core.state in WALK_STATES
         missing = wanted and not age <= IMU_TIMEOUT
         if missing:
             self._warn(f"attitude_mode imu: no imu sample for {IMU_TIMEOUT:g} s: the body "

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import threading
 from collections.abc import Callable, Iterator
 
@@ -46,24 +47,29 @@ def test_roll_and_pitch_of_the_orientation_whatever_the_yaw(roll, pitch, yaw):
     assert imu_roll_pitch(imu(roll, pitch, yaw)) == pytest.approx((roll, pitch), abs=1e-9)
 
 
-def test_a_quaternion_that_is_not_unit_is_normalised():
+@pytest.mark.parametrize("frame", ["", "base_link", "crawler1/base_link"])
+def test_the_body_frame_and_a_nearly_unit_quaternion_are_taken(frame):
     msg = imu(0.1, -0.1)
+    msg.header.frame_id = frame
     for name in "wxyz":
-        setattr(msg.orientation, name, 3.0 * getattr(msg.orientation, name))
+        setattr(msg.orientation, name, 1.005 * getattr(msg.orientation, name))
     assert imu_roll_pitch(msg) == pytest.approx((0.1, -0.1), abs=1e-9)
 
 
 @pytest.mark.parametrize(("change", "fragment"), [
     (lambda m: m.orientation_covariance.__setitem__(0, -1.0), "has no orientation"),
-    (lambda m: setattr(m.orientation, "w", 0.0), "no direction"),
+    (lambda m: setattr(m.orientation, "w", 0.0), "has norm 0:"),
+    (lambda m: setattr(m.orientation, "w", 3.0), "has norm 3:"),
+    (lambda m: setattr(m.orientation, "w", 1.02), "has norm 1.02:"),
     (lambda m: setattr(m.orientation, "x", math.nan), "not finite"),
     (lambda m: setattr(m.orientation, "z", math.inf), "not finite"),
+    (lambda m: setattr(m.header, "frame_id", "imu_link"), "frame 'imu_link'"),
+    (lambda m: setattr(m.header, "frame_id", "base_link_2"), "publish it in 'base_link'"),
 ])
 def test_an_orientation_that_cannot_be_used_is_refused_with_the_reason(change, fragment):
     msg = imu()
-    msg.orientation.w = 0.0 if fragment == "no direction" else msg.orientation.w
     change(msg)
-    with pytest.raises(CommandError, match=fragment):
+    with pytest.raises(CommandError, match=re.escape(fragment)):
         imu_roll_pitch(msg)
 
 
