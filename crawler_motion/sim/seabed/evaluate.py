@@ -49,8 +49,8 @@ class CycleMetrics:
     slip_max: float
     stance_slip_mean: float  # loaded slip distance per stance [m]
     stance_slip_max: float
-    stance_displacement: float  # mean net travel of the contact point over the ground per stance
-    centre_travel: float  # mean horizontal travel of the foot centre per stance (with the roll)
+    stance_displacement: float  # mean net slide of the contact point per stance [m]
+    centre_travel: float  # mean horizontal travel of the foot centre per stance, roll incl. [m]
     stance_contact_loss: float  # share of stance samples
     midswing_contact: float  # share of mid-swing samples
     roll_max: float
@@ -140,6 +140,13 @@ def _contact_velocity(rec: Recording, radius: float) -> np.ndarray:
                      lin[..., 1] + radius * ang[..., 0]), axis=-1)
 
 
+def net_slide(velocity: np.ndarray, time: np.ndarray) -> float:
+    """Net horizontal slide [m] of a foot's contact point whose velocity ``(n, 2)`` [m/s]
+    (`_contact_velocity`) is sampled at ``time`` ``(n,)`` [s]: how far the sphere's material
+    point touching the ground has moved from where it was (0 for a sphere that rolls)."""
+    return float(np.hypot(*np.trapezoid(velocity, time, axis=0)))
+
+
 def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray, runs: list,
            contact: np.ndarray, threshold: float, k0: int, k1: int) -> CycleMetrics:
     part = slice(k0, k1)
@@ -152,7 +159,7 @@ def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray
     centre = [float(np.hypot(*(rec.feet[b, leg, :2] - rec.feet[a, leg, :2])))
               for leg, a, b in runs if k0 <= a < k1]
     dt = np.gradient(rec.time)
-    travel = [float(np.hypot(*np.trapezoid(contact[a:b + 1, leg], rec.time[a:b + 1], axis=0)))
+    travel = [net_slide(contact[a:b + 1, leg], rec.time[a:b + 1])
               for leg, a, b in runs if k0 <= a < k1]
     loaded_all = rec.loads > threshold
     per_stance = [float(np.sum((slip[a:b + 1, leg] * dt[a:b + 1])[loaded_all[a:b + 1, leg]]))

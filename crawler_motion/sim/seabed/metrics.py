@@ -16,10 +16,12 @@ How each figure is measured (so figures compare between runs):
   mid-swing contact instead);
 - loaded slip per stance: that speed integrated over each planned stance's loaded samples
   [m] (mean and max over the cycle's stances);
-- stance-foot displacement: net travel of the foot's contact point over the ground over each
-  planned stance, the contact point's velocity (as for the slip, loaded or not) integrated
-  [m]: a foot that rolls without sliding has not moved (the plan rolls the sphere on purpose,
-  `motion.contact`); the foot centre's own travel, roll included, is reported beside it;
+- stance-foot displacement: net slide of the foot's contact point over each planned stance,
+  the contact point's velocity (as for the slip, loaded or not) integrated [m]: a foot that
+  rolls without sliding has not slid (the plan rolls the sphere on purpose, `motion.contact`;
+  the point of the ground under it moves by the roll); the foot centre's own travel, roll
+  included, is reported beside it. The ground's normal is taken as +z (on relief and rocks
+  the figure, like the slip, is approximate);
 - stance contact loss: share of planned-stance samples with the foot below the threshold;
 - mid-swing contact: share of samples in the middle half of a swing with any foot load;
 - body contact: share of samples with the hull or a link touching the world;

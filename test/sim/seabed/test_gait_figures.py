@@ -102,3 +102,11 @@ def test_the_swaying_diagonal_crosses_the_2cm_relief():
     s = evaluate_walk(CFG, WalkParams.defaults(CFG.gait, gait="diagonal_sway"), steps=3,
                       world="relief_2cm").summary()
     assert s["advance_ratio"] >= 0.90, s
+
+
+def test_the_rocking_diagonal_slides_its_stance_feet():
+    # the default diagonal gait without a transfer: its feet slide 10 mm per stance (its
+    # contact point as far as its centre): the figure the swaying gaits keep within 3 mm
+    s = summary(gait="diagonal")
+    assert s["stance_displacement"] >= 0.008, s
+    assert s["centre_travel"] == pytest.approx(s["stance_displacement"], abs=0.001), s
