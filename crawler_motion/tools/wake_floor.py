@@ -71,10 +71,17 @@ def measure(rate: float, seconds: float) -> Floor:
     if done.returncode != 0:
         raise RuntimeError(f"the floor's process failed ({done.returncode}): "
                            f"{done.stderr.strip()[-300:]}")
-    data = json.loads(done.stdout)
-    stamps = np.asarray(data["stamps"], dtype=float)
-    return Floor(float(rate), period_stats(stamps, rate), int(data["missed"]),
-                 float(data["cpu"]))
+    try:
+        data = json.loads(done.stdout)
+        stamps = np.asarray(data["stamps"], dtype=float)
+        missed, cpu = int(data["missed"]), float(data["cpu"])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise RuntimeError(f"the floor's process printed no figures ({exc!r}): "
+                           f"{done.stdout.strip()[:200]!r}") from None
+    if stamps.size < 2:
+        raise RuntimeError(f"the floor's process ticked {stamps.size} times in {seconds:g} s "
+                           f"at {rate:g} Hz: no period to measure")
+    return Floor(float(rate), period_stats(stamps, rate), missed, cpu)
 
 
 def table_row(floor: Floor) -> str:

@@ -14,13 +14,26 @@ def floor_of(stamps: list[float], skipped: int, rate: float = 500.0) -> Floor:
     return Floor(rate, period_stats(np.asarray(stamps), rate), skipped, 2.0)
 
 
-def test_the_child_ticks_at_the_rate_on_the_system_clock():
+def test_the_child_ticks_on_the_system_clock():
     floor = wake_floor.measure(200.0, 0.5)
-    # 0.5 s at 200 Hz: about 100 ticks, whatever the machine's jitter (a tick never runs twice
-    # for one deadline, and a skipped one is counted)
-    assert 80 <= floor.timing.n + floor.skipped <= 102
-    assert 150.0 < floor.timing.rate < 205.0
+    # 0.5 s at 200 Hz: at most ~100 deadlines, each ticked once or counted as skipped (how many
+    # the machine makes is the benchmark's figure, not this test's)
+    assert 2 <= floor.timing.n and floor.timing.n + floor.skipped <= 102
     assert floor.cpu >= 0.0
+
+
+@pytest.mark.parametrize(("stdout", "fragment"), [
+    ("", "printed no figures"),
+    ('{"stamps": [1.0, 2.0]}', "printed no figures"),
+    ('{"stamps": [1.0], "missed": 0, "cpu": 1.0}', "ticked 1 times"),
+])
+def test_a_child_without_figures_is_an_error(monkeypatch, stdout, fragment):
+    import subprocess
+
+    monkeypatch.setattr(subprocess, "run", lambda *a, **k: subprocess.CompletedProcess(
+        a, 0, stdout=stdout, stderr=""))
+    with pytest.raises(RuntimeError, match=fragment):
+        wake_floor.measure(100.0, 0.1)
 
 
 @pytest.mark.parametrize("argv", [[], ["500"], ["x", "1"], ["500", "0"], ["0.5", "1"],
