@@ -271,12 +271,17 @@ class SeabedModel:
         self._clear_ground(data)
         return data
 
+    def world_groups(self) -> np.ndarray:
+        """The geom groups of the world, not the robot's: a ray filter (``mj_ray``)."""
+        groups = np.ones(6, dtype=np.uint8)
+        groups[self.settings.robot_group] = 0
+        return groups
+
     def _clear_ground(self, data: mujoco.MjData) -> None:
         """Raise the robot where the world's ground under a foot is above z = 0, so that every
         foot starts ``spawn_clearance`` above it (a foot started inside a heightfield or a rock
         is thrown out by a contact force of kilonewtons)."""
-        groups = np.ones(6, dtype=np.uint8)
-        groups[self.settings.robot_group] = 0
+        groups = self.world_groups()
         feet = data.site_xpos[self.foot_sites]
         top = float(feet[:, 2].max()) + SPAWN_PROBE
         geom = np.zeros(1, dtype=np.int32)

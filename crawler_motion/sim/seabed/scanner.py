@@ -64,8 +64,7 @@ class RangeScanner:
         self.max_range = float(self.settings.max_range or mount.max_range)
         self.directions = fan_directions(mount)
         self.rotation = rpy_matrix(mount.rpy)  # scanner_link -> base_link
-        self.geomgroup = np.ones(6, dtype=np.uint8)
-        self.geomgroup[sm.settings.robot_group] = 0
+        self.geomgroup = sm.world_groups()
         n = len(self.directions)
         self._geomid = np.zeros(n, dtype=np.int32)
         self._dist = np.zeros(n)
