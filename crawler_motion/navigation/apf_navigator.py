@@ -162,6 +162,13 @@ class ApfNavigator:
         self.virtual_goals = []
         return was_active
 
+    def fail(self, reason: str) -> bool:
+        """End an ACTIVE goal as FAILED with ``reason``; True if it was ACTIVE."""
+        if self.state is not NavState.ACTIVE:
+            return False
+        self._finish(NavState.FAILED, reason)
+        return True
+
     def status(self) -> dict:
         """The ``navigation_status`` fields."""
         c = self.command

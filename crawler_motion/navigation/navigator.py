@@ -117,6 +117,13 @@ class VirtualBodyNavigator:
         self.state, self.reason, self.goal = NavState.IDLE, reason, None
         return was_active
 
+    def fail(self, reason: str) -> bool:
+        """End an ACTIVE goal as FAILED with ``reason``; True if it was ACTIVE."""
+        if self.state is not NavState.ACTIVE:
+            return False
+        self._finish(NavState.FAILED, reason)
+        return True
+
     def status(self) -> dict:
         """The ``navigation_status`` fields."""
         return {"state": self.state.value, "reason": self.reason,

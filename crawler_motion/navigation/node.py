@@ -2,9 +2,11 @@
 
 Subscribes ``goal_pose`` (geometry_msgs/PoseStamped in the map frame), ``terrain_map``
 (nav_msgs/OccupancyGrid) and ``terrain_heights`` (sensor_msgs/PointCloud2 x y z variance) of
-``terrain_mapper``, ``odom``, ``joint_states`` and, for method ``apf``, ``follow_command``
-(std_msgs/String JSON ``{"length": L, "side": "right"|"left"}``: walk L m along the nearest
-structure at the stand-off distance); serves ``~/cancel`` (std_srvs/Trigger).
+``terrain_mapper``, ``odom``, ``joint_states``, ``planner_status`` (a twist the planner refuses
+as beyond its walk's limits fails the goal with its reason: `planner_watch`) and, for method
+``apf``, ``follow_command`` (std_msgs/String JSON ``{"length": L, "side": "right"|"left"}``:
+walk L m along the nearest structure at the stand-off distance); serves ``~/cancel``
+(std_srvs/Trigger).
 On every map it runs one cycle of the method (parameter ``method``; `methods.METHODS`) and
 publishes the twist on ``cmd_vel``. Publishes ``navigation_status`` (std_msgs/String JSON,
 transient local) on every change and once a second. Leaving ACTIVE (arrived, failed,
@@ -19,6 +21,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped, Twist, Vector3
@@ -38,6 +41,7 @@ from crawler_motion.navigation.body import envelope_radius, virtual_radius
 from crawler_motion.navigation.methods import make_navigator
 from crawler_motion.navigation.navigator import Method, NavState
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
+from crawler_motion.navigation.planner_watch import RefusalWatch
 from crawler_motion.navigation.view import view_from_grid
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
@@ -63,10 +67,11 @@ def read_heights(msg: PointCloud2) -> np.ndarray | None:
 
 
 class NavigatorNode(Node):
-    """Subscriptions and publishers around one navigator core."""
+    """Subscriptions and publishers around one navigator core; ``kwargs`` go to
+    `rclpy.node.Node` (context, parameter overrides)."""
 
-    def __init__(self) -> None:
-        super().__init__(NAME)
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(NAME, **kwargs)
         for spec in NAVIGATOR_PARAMETERS:
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
         values = {s.name: self.get_parameter(s.name).value for s in NAVIGATOR_PARAMETERS}
@@ -90,6 +95,8 @@ class NavigatorNode(Node):
         self.create_subscription(Odometry, "odom", self._on_odom, 20)
         self.create_subscription(JointState, "joint_states", self._on_joints,
                                  qos_profile_sensor_data)
+        self._planner = RefusalWatch()
+        self.create_subscription(String, "planner_status", self._on_planner_status, latched)
         self.create_service(Trigger, "~/cancel", self._on_cancel)
         self.create_timer(STATUS_PERIOD, lambda: self._publish_status(force=True))
         self._publish_status(force=True)
@@ -108,6 +115,7 @@ class NavigatorNode(Node):
         except CommandError as exc:
             self._refuse(str(exc))
             return
+        self._planner.start()
         self.get_logger().info(f"goal ({msg.pose.position.x:.3f}, {msg.pose.position.y:.3f})")
         self._publish_status()
 
@@ -121,8 +129,16 @@ class NavigatorNode(Node):
             self._refuse(str(exc))
             return
         self.nav.set_follow(command, time.monotonic())
+        self._planner.start()
         self.get_logger().info(f"follow {command.length:.3f} m, structure {command.side.value}")
         self._publish_status()
+
+    def _on_planner_status(self, msg: String) -> None:
+        reason = self._planner.update(msg.data)
+        if reason is not None and self.nav.fail(reason):
+            self._stop()
+            self.get_logger().error(f"goal failed: {reason}")
+            self._publish_status()
 
     def _on_odom(self, msg: Odometry) -> None:
         q, p = msg.pose.pose.orientation, msg.pose.pose.position

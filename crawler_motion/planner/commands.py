@@ -49,8 +49,8 @@ TWIST_LIMIT_TOLERANCE = 1e-9
 #: A command shown in the messages about malformed JSON.
 _EXAMPLE = '{"command": "walk", "steps": 4}'
 
-__all__ = ["COMMAND_KEYS", "MAX_COMMAND_BYTES", "MAX_STEPS", "WALK_KEYS", "Command",
-           "field_ranges", "is_zero_twist", "parse_gait_command", "twist_limits",
+__all__ = ["COMMAND_KEYS", "MAX_COMMAND_BYTES", "MAX_STEPS", "TWIST_BEYOND_LIMITS", "WALK_KEYS",
+           "Command", "field_ranges", "is_zero_twist", "parse_gait_command", "twist_limits",
            "twist_to_params"]
 
 
@@ -202,11 +202,16 @@ def parse_gait_command(text: str, cfg: Config) -> Command:
     return Command(kind="walk", steps=steps, overrides=tuple(values.items()))
 
 
+#: How the refusals of a twist beyond what the walk can do begin (speed, yaw rate, parameters):
+#: the same twist is refused again, so a navigator sending it fails its goal with the reason.
+TWIST_BEYOND_LIMITS = ("cmd_vel speed", "cmd_vel yaw rate", "cannot walk from cmd_vel")
+
+
 def _resolved(base: WalkParams, cfg: Config) -> WalkParams:
     try:
         return validate_params(base, cfg)
     except GaitError as exc:
-        raise CommandError(f"cannot walk from cmd_vel: {exc}") from exc
+        raise CommandError(f"{TWIST_BEYOND_LIMITS[2]}: {exc}") from exc
 
 
 def twist_limits(cfg: Config, base: WalkParams) -> tuple[float, float]:
@@ -243,10 +248,11 @@ def twist_to_params(vx: float, vy: float, wz: float, cfg: Config, base: WalkPara
     v_max, w_max = twist_limits(cfg, p)
     speed = math.hypot(vx, vy)
     if speed > v_max * (1 + TWIST_LIMIT_TOLERANCE):
-        raise CommandError(f"cmd_vel speed {speed:.4g} m/s exceeds the maximum {v_max:.4g} m/s "
+        raise CommandError(f"{TWIST_BEYOND_LIMITS[0]} {speed:.4g} m/s exceeds the maximum "
+                           f"{v_max:.4g} m/s "
                            f"(max_stride {cfg.gait.max_stride:g} m per stance of {stance:g} s)")
     if abs(wz) > w_max * (1 + TWIST_LIMIT_TOLERANCE):
-        raise CommandError(f"cmd_vel yaw rate {wz:.4g} rad/s exceeds the maximum "
+        raise CommandError(f"{TWIST_BEYOND_LIMITS[1]} {wz:.4g} rad/s exceeds the maximum "
                            f"{w_max:.4g} rad/s (max_turn {cfg.gait.max_turn:g} rad per step "
                            f"of {n * slot:g} s)")
     stride = min(speed * stance, cfg.gait.max_stride)
