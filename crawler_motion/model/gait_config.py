@@ -75,6 +75,14 @@ class GaitConfig:
     #: (`crawler_motion.motion.sway.line_sways`); without it the sway is the nearest point of
     #: the line and the transfer carries the whole step.
     sway_weights: dict[str, float] = field(default_factory=dict)
+    #: By gait: the table's own default swing time [s] (key ``swing_time`` of a table, within
+    #: ``swing_time_range``); without it a walk of the gait defaults to ``swing_time``.
+    swings: dict[str, float] = field(default_factory=dict)
+
+    def swing_time_of(self, gait: str) -> float:
+        """The default swing time [s] of a walk of ``gait``: its table's own, else
+        ``swing_time``."""
+        return self.swings.get(gait, self.swing_time)
 
 
 def _parse_gaits(data: Mapping[str, Any], legs: tuple[str, ...], where: str
@@ -169,7 +177,8 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
                                  f"{where}.stability_margin"),
         stance_profile=str(data.get("stance_profile", "rest")),
         transfers=_parse_table_values(data, "transfer_time", " s", where),
-        sway_weights=_parse_sway_weights(data, gaits, len(legs), where))
+        sway_weights=_parse_sway_weights(data, gaits, len(legs), where),
+        swings=_parse_table_values(data, "swing_time", " s", where))
     if cfg.stance_profile not in STANCE_PROFILES:
         raise ConfigError(f"{where}.stance_profile must be one of {list(STANCE_PROFILES)}, got "
                           f"{cfg.stance_profile!r}")
@@ -178,6 +187,10 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
     if cfg.swing_time_range[0] > cfg.swing_time_range[1]:
         raise ConfigError(f"{where}.swing_time_range must be [min, max] with min <= max, "
                           f"got {list(cfg.swing_time_range)}")
+    for name, value in cfg.swings.items():
+        if not cfg.swing_time_range[0] <= value <= cfg.swing_time_range[1]:
+            raise ConfigError(f"{where}.gaits.{name}.swing_time must be within "
+                              f"swing_time_range {list(cfg.swing_time_range)} s, got {value}")
     if cfg.gait not in gaits:
         raise ConfigError(f"{where}.gait '{cfg.gait}' is not one of {sorted(gaits)}")
     if cfg.profile not in profiles:

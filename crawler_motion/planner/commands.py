@@ -74,9 +74,15 @@ class Command:
         """``base`` with this command's overrides, validated (``stance_time`` resolved).
 
         A ``stance_time`` in ``base`` that the command does not set is recomputed from the
-        new swing time and gait (``None``), unless the command sets it.
+        new swing time and gait (``None``), unless the command sets it; a new gait without a
+        ``swing_time`` takes its own default swing time if ``base`` has the old gait's
+        (`GaitConfig.swing_time_of`; a chosen one is kept).
         """
         fields = dict(self.overrides)
+        gait = fields.get("gait", base.gait)
+        if ("swing_time" not in fields and gait != base.gait and gait in cfg.gait.gaits
+                and base.swing_time == cfg.gait.swing_time_of(base.gait)):
+            fields["swing_time"] = cfg.gait.swing_time_of(gait)
         if "stance_time" not in fields and ({"swing_time", "gait"} & fields.keys()):
             fields["stance_time"] = None
         try:

@@ -207,6 +207,14 @@ BAD = [
     ("sway weight with a three-foot swing", {GROUPS: [["rf"], ["lb"], ["lf", "rb"]],
                                              "gait.gaits.diagonal.sway_weight": 0.02},
      ["gait.gaits.diagonal.sway_weight", "support line"]),
+    ("gait swing time below range", {"gait.gaits.diagonal_sway.swing_time": 0.09},
+     ["gait.gaits.diagonal_sway.swing_time", "swing_time_range", "0.09"]),
+    ("gait swing time above range", {"gait.gaits.wave.swing_time": 5.01},
+     ["gait.gaits.wave.swing_time", "swing_time_range [0.1, 5.0]"]),
+    ("gait swing time of 0", {"gait.gaits.diagonal.swing_time": 0},
+     ["gait.gaits.diagonal.swing_time", "swing_time_range"]),
+    ("gait swing time as text", {"gait.gaits.wave.swing_time": "quick"},
+     ["gait.gaits.wave.swing_time"]),
     ("unknown gait", {"gait.gait": "gallop"}, ["gait.gait", "gallop", "diagonal"]),
     ("unknown profile", {"gait.profile": "jerky"}, ["gait.profile", "jerky", "smooth"]),
     # NaN and infinity
@@ -311,6 +319,8 @@ GOOD = [
     ("a diagonal transfer", {"gait.gaits.diagonal.transfer_time": 0.3}),
     ("no diagonal transfer", {"gait.gaits.diagonal.transfer_time": 0.0}),
     ("a diagonal sway weight of 0", {"gait.gaits.diagonal.sway_weight": 0.0}),
+    ("a gait swing time at the range's bottom", {"gait.gaits.wave.swing_time": 0.1}),
+    ("a gait swing time at the range's top", {"gait.gaits.wave.swing_time": 5.0}),
 ]
 
 
@@ -328,13 +338,18 @@ def test_valid_variants_load(changes, tmp_path):
     if GROUPS in changes:
         assert cfg.gait.gaits["diagonal"] == (("rf",), ("lb",), ("lf", "rb"))
     key = "gait.gaits.diagonal.transfer_time"
-    shipped = {"diagonal_sway": 0.35}  # the shipped config's swaying diagonal gait
+    shipped = {"diagonal_sway": 0.525}  # the shipped config's swaying diagonal gait
     assert cfg.gait.transfers == ({**shipped, "diagonal": changes[key]} if key in changes
                                   else shipped)
     key = "gait.gaits.diagonal.sway_weight"
     shipped = {"diagonal_sway": 0.025}
     assert cfg.gait.sway_weights == ({**shipped, "diagonal": changes[key]} if key in changes
                                      else shipped)
+    key = "gait.gaits.wave.swing_time"
+    shipped = {"diagonal_sway": 0.4}
+    assert cfg.gait.swings == ({**shipped, "wave": changes[key]} if key in changes
+                               else shipped)
+    assert cfg.gait.swing_time_of("wave") == changes.get(key, cfg.gait.swing_time)
 
 
 def test_the_body_pose_limits_load():

@@ -30,7 +30,7 @@ def refusal_of(vx: float, wz: float = 0.0, gait: str = "diagonal_sway") -> str:
 
 
 @pytest.mark.parametrize(("texts", "fails"), [
-    ([status(2, None), status(3, refusal_of(0.08))], True),  # diagonal_sway: max 0.062 m/s
+    ([status(2, None), status(3, refusal_of(0.08))], True),  # diagonal_sway: max 0.055 m/s
     ([status(3, refusal_of(0.01, 0.5))], True),  # yaw rate
     ([status(2, refusal_of(0.08))], False),  # the refusal before the goal, seen again
     ([status(3, "cmd_vel ignored in state STOPPING: wait for STANDING")],

@@ -145,6 +145,22 @@ def test_apply_merges_and_validates_with_base():
     assert cmd.apply(replace(BASE, lift=0.005), CFG).arc == 0.035
 
 
+@pytest.mark.parametrize(("base_swing", "command", "swing"), [
+    # a default swing time follows the gait: the swaying diagonal's own, then the config's
+    (G.swing_time, '{"command": "walk", "gait": "diagonal_sway"}', G.swings["diagonal_sway"]),
+    (G.swing_time, '{"command": "walk", "gait": "wave"}', G.swing_time),  # no own swing time
+    (0.5, '{"command": "walk", "gait": "diagonal_sway"}', 0.5),  # a chosen one is kept
+    (G.swing_time, '{"command": "walk", "gait": "diagonal_sway", "swing_time": 0.7}', 0.7),
+    (G.swing_time, '{"command": "walk", "gait": "diagonal"}', G.swing_time),  # same gait
+])
+def test_a_new_gait_takes_its_own_default_swing_time(base_swing, command, swing):
+    base = validate_params(replace(BASE, swing_time=base_swing, stance_time=None), CFG)
+    p = parse_gait_command(command, CFG).apply(base, CFG)
+    assert p.swing_time == swing
+    back = parse_gait_command('{"command": "walk", "gait": "diagonal"}', CFG).apply(p, CFG)
+    assert back.swing_time == (G.swing_time if swing == G.swings.get(p.gait) else swing)
+
+
 JSON_VALUES = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
     lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner,

@@ -31,6 +31,10 @@ def summary(steps: int = 2, **overrides: object) -> dict:
     pytest.param(SWAYING_DIAGONAL, id="diagonal-with-transfer-forward"),
     pytest.param({**SWAYING_DIAGONAL, "heading": math.pi / 2}, id="diagonal-with-transfer-side"),
     pytest.param({"gait": "diagonal_sway"}, id="diagonal-sway-gait-forward"),  # the config's
+    # sideways its 0.4 s swing is what loads the joints most (τ99 1.94 N m; 2.13 with 0.375 s
+    # transfers)
+    pytest.param({"gait": "diagonal_sway", "heading": math.pi / 2},
+                 id="diagonal-sway-gait-sideways"),
 ])
 def test_swaying_walks_do_not_rock_or_scuff(overrides):
     # Before the sway: diagonal roll 3.2° / pitch 6.1°, mid-swing contact 6.7 %; wave pitch 4.7°.
@@ -99,9 +103,11 @@ def test_stance_feet_stay_loaded_and_in_place(gait, overrides, tilt):
 
 
 def test_the_swaying_diagonal_crosses_the_2cm_relief():
+    # Before its own 0.4 s swing (0.6 s, 0.35 s transfers): advance 0.95, pitch 6.6°.
     s = evaluate_walk(CFG, WalkParams.defaults(CFG.gait, gait="diagonal_sway"), steps=3,
                       world="relief_2cm").summary()
-    assert s["advance_ratio"] >= 0.90, s
+    assert s["advance_ratio"] >= 0.95, s
+    assert max(s["roll_max"], s["pitch_max"]) <= math.radians(5.0), s
 
 
 def test_the_rocking_diagonal_slides_its_stance_feet():
