@@ -68,7 +68,6 @@ from crawler_motion.tools.e2e_analysis import (
 from crawler_motion.tools.e2e_records import GROUP_T, REC_STAMP
 from crawler_motion.tools.e2e_stack import Finish, Stack
 from crawler_motion.tools.procstat import cpu_percent
-from crawler_motion.tools.wake_floor import Floor
 
 #: Command rates of the bench [Hz].
 RATES = (100.0, 200.0, 500.0, 1000.0)
@@ -216,7 +215,7 @@ def cpu_text(result: RateResult) -> str:
 
 
 def print_timing_table(results: Sequence[RateResult], seconds: float,
-                       floors: Mapping[float, Floor]) -> None:
+                       floors: Mapping[float, wake_floor.Floor]) -> None:
     """The table of timing, latency, losses and CPU per pipeline and rate, each rate's rows
     after its floor (`wake_floor`) where it was measured."""
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
@@ -284,7 +283,7 @@ def shortfalls(result: RateResult, target: Target) -> list[str]:
     return out + ([result.error] if result.error else [])
 
 
-def print_verdict(results: Sequence[RateResult], floors: Mapping[float, Floor]) -> bool:
+def print_verdict(results: Sequence[RateResult], floors: Mapping[float, wake_floor.Floor]) -> bool:
     """The verdict on each pipeline's target, what the machine's floor allows, and the
     definitions; True when all targets are met."""
     met_all = True
@@ -319,7 +318,7 @@ def print_verdict(results: Sequence[RateResult], floors: Mapping[float, Floor]) 
 
 
 def print_table(results: Sequence[RateResult], seconds: float,
-                floors: Mapping[float, Floor] | None = None) -> bool:
+                floors: Mapping[float, wake_floor.Floor] | None = None) -> bool:
     """Print the Markdown tables and the verdict; True when the target is met."""
     floors = {} if floors is None else floors
     print_timing_table(results, seconds, floors)

@@ -124,9 +124,10 @@ def evaluate_walk(cfg: Config, params: WalkParams, steps: int = 4,
     rpy = attitude(rec.base[:, 3:])
     runs = stance_runs(phases.stance)
     contact = _contact_velocity(rec, sm.foot_radius)
+    slip = np.hypot(contact[..., 0], contact[..., 1])
     cycles = []
     for k0, k1 in steady_cycles(plan, rec.time):
-        cycles.append(_cycle(rec, phases, path, rpy, runs, contact, threshold, k0, k1))
+        cycles.append(_cycle(rec, phases, path, rpy, runs, (contact, slip), threshold, k0, k1))
     return EvalResult(world=sm.world.source, medium=sm.settings.water.medium.value,
                       params=asdict(plan.slots[0].params), steps=steps,
                       sim_time=float(plan.duration), wall_time=wall, cycles=cycles)
@@ -148,9 +149,12 @@ def net_slide(velocity: np.ndarray, time: np.ndarray) -> float:
 
 
 def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray, runs: list,
-           contact: np.ndarray, threshold: float, k0: int, k1: int) -> CycleMetrics:
+           contact_slip: tuple[np.ndarray, np.ndarray], threshold: float, k0: int, k1: int
+           ) -> CycleMetrics:
+    """One cycle's figures; ``contact_slip``: the contact points' velocities ``(n, n_legs,
+    2)`` [m/s] and their speeds ``(n, n_legs)`` [m/s] over the whole walk."""
     part = slice(k0, k1)
-    slip = np.hypot(contact[..., 0], contact[..., 1])
+    contact, slip = contact_slip
     loaded = rec.loads[part] > threshold
     stance = phases.stance[part]
     swing = phases.swing_phase[part]

@@ -213,7 +213,7 @@ def build_mjcf(robot: RobotConfig, settings: SimSettings | None = None,
     return ET.tostring(root, encoding="unicode")
 
 
-#: Rays probing the ground under the feet at the start start this far above them [m].
+#: Height above the highest foot [m] from which the start probes the ground under each foot.
 SPAWN_PROBE = 1.0
 #: The robot is raised at the start only where the ground needs more than this [m].
 SPAWN_TOLERANCE = 1e-6
