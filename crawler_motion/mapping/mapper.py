@@ -1,6 +1,8 @@
 """The terrain mapper's core: odometry window, scan checks with counted reasons, fusion, obstacles.
 
-`TerrainMapper.add_odometry` keeps the body poses of the last ``odom_window`` seconds;
+`TerrainMapper.add_odometry` keeps the body poses of the last ``odom_window`` seconds that
+`odometry.OdometryGate` accepts (a stale, future-stamped, absurd or jumping sample is refused
+with its reason; a restarted odometry stream clears the map to unknown and is followed);
 `TerrainMapper.add_scan` takes a scan (points in scanner_link and its stamp), finds the body
 pose at its stamp, transforms the returns into the odom frame with their height variances, and
 fuses them. The pose at a scan's stamp ``t`` (as tf2's message filter, on stamps only: the
@@ -34,6 +36,7 @@ import numpy as np
 
 from crawler_motion.mapping.grid import ElevationGrid, FuseResult
 from crawler_motion.mapping.obstacles import obstacle_cells, occupancy
+from crawler_motion.mapping.odometry import OdometryGate, OdometryLimits, OdometryVerdict
 from crawler_motion.mapping.points import Mount, NoiseModel, returns_in_map
 from crawler_motion.model.rotations import slerp_rotation
 
@@ -56,7 +59,7 @@ class SkipReason(Enum):
     AHEAD_OF_ODOMETRY = "scan newer than the latest odometry by more than the tolerance"
     ODOMETRY_GAP = "the odometry samples around the scan are more than 2 tolerances apart"
     QUEUE_FULL = "held scan dropped: more than scan_queue scans waiting for odometry"
-    BAD_POSE = "odometry pose not finite"
+    ODOMETRY_RESET = "held scan dropped: the odometry restarted (a new stream)"
     BAD_STAMP = "scan stamp not finite"
     MALFORMED = "not an x y z float32 cloud in the scanner frame"
 
@@ -76,6 +79,7 @@ class MapperSettings:
     odom_window: float = 1.0  # [s]
     pose_tolerance: float = 0.05  # [s]
     scan_queue: int = 4  # scans held for odometry at most
+    odometry: OdometryLimits = field(default_factory=OdometryLimits)  # plausible odometry
 
     @property
     def cells(self) -> int:
@@ -123,6 +127,9 @@ class TerrainMapper:
         self._poses: deque[Pose] = deque()
         self._held: list[_HeldScan] = []  # ordered by stamp
         self._last_position: np.ndarray | None = None
+        self.gate = OdometryGate(settings.odometry)
+        #: Odometry samples refused or reset, by verdict (`odometry.OdometryVerdict`).
+        self.odometry_refused: Counter[OdometryVerdict] = Counter()
 
     @property
     def latest_pose(self) -> Pose | None:
@@ -134,16 +141,38 @@ class TerrainMapper:
         """Scans waiting for an odometry sample at or after their stamp."""
         return len(self._held)
 
-    def add_odometry(self, pose: Pose) -> SkipReason | None:
-        """Keep a body pose (stamps must increase; an older one is refused as STALE) and fuse
-        the held scans it reaches (stamp <= its stamp), or skip them with their reason."""
-        if not (np.all(np.isfinite(pose.rotation)) and np.all(np.isfinite(pose.position))
-                and math.isfinite(pose.stamp)):
-            self.skipped[SkipReason.BAD_POSE] += 1
-            return SkipReason.BAD_POSE
-        if self._poses and pose.stamp <= self._poses[-1].stamp:
-            self.skipped[SkipReason.STALE] += 1
-            return SkipReason.STALE
+    def add_odometry(self, pose: Pose, now: float | None = None) -> OdometryVerdict | None:
+        """Keep a body pose that `odometry.OdometryGate` accepts (``now`` [s]: the receiver's
+        clock, None: unchecked) and fuse the held scans it reaches (stamp <= its stamp), or
+        skip them with their reason; a refused pose changes nothing. On ``RESET`` (a new
+        odometry stream) the map, the poses and the held scans are cleared and the new
+        stream's samples are kept. Returns None if accepted, else the verdict."""
+        verdict = self.gate.check(pose, now)
+        if verdict is OdometryVerdict.RESET:
+            self.odometry_refused[verdict] += 1
+            stream = list(self.gate.candidate)
+            self._clear()
+            for sample in stream:
+                self.gate.check(sample)
+                self._keep(sample)  # type: ignore[arg-type]
+            return verdict
+        if verdict is not OdometryVerdict.ACCEPT:
+            self.odometry_refused[verdict] += 1
+            return verdict
+        self._keep(pose)
+        return None
+
+    def _clear(self) -> None:
+        """Forget the map, the odometry and the held scans (a new odometry stream)."""
+        s = self.settings
+        self.grid = ElevationGrid(s.resolution, s.cells, s.gate, s.drift)
+        self._poses.clear()
+        self.skipped[SkipReason.ODOMETRY_RESET] += len(self._held)
+        self._held.clear()
+        self._last_position = None
+
+    def _keep(self, pose: Pose) -> None:
+        """Append an accepted pose and fuse the held scans it reaches."""
         self._poses.append(pose)
         while self._poses and self._poses[0].stamp < pose.stamp - self.settings.odom_window:
             self._poses.popleft()
@@ -154,7 +183,6 @@ class TerrainMapper:
         while self._held and self._held[0].stamp <= pose.stamp:
             scan = self._held.pop(0)
             self._fuse(scan.points, scan.stamp)
-        return None
 
     def pose_at(self, stamp: float) -> Pose | SkipReason:
         """The body pose at ``stamp`` [s], interpolated between the odometry samples around it

@@ -24,6 +24,7 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2, PointField
 
 from crawler_motion.mapping.mapper import Pose, SkipReason, TerrainMapper
+from crawler_motion.mapping.odometry import OdometryVerdict
 from crawler_motion.mapping.parameters import mapper_parameters, mapper_settings
 from crawler_motion.mapping.points import Mount
 from crawler_motion.model.config import load_config, load_scanner
@@ -92,10 +93,15 @@ class TerrainMapperNode(Node):
         except ValueError:
             rot = np.full((3, 3), np.nan)
         before = Counter(self.mapper.skipped)
-        reason = self.mapper.add_odometry(Pose(stamp_seconds(msg.header.stamp), rot,
-                                               np.array([p.x, p.y, p.z])))
-        if reason is not None:
-            self.get_logger().warning(f"odom skipped: {reason.value}", throttle_duration_sec=1.0)
+        now = self.get_clock().now().nanoseconds * 1e-9
+        verdict = self.mapper.add_odometry(Pose(stamp_seconds(msg.header.stamp), rot,
+                                                np.array([p.x, p.y, p.z])), now)
+        if verdict is OdometryVerdict.RESET:
+            self.get_logger().error(f"odom: {verdict.value}")
+        elif verdict is not None:
+            self.get_logger().warning(
+                f"odom skipped: {verdict.value} "
+                f"({self.mapper.odometry_refused[verdict]} so far)", throttle_duration_sec=1.0)
         else:  # held scans it released and could not fuse
             self._report(before)
 

@@ -8,6 +8,7 @@ from typing import Any
 from crawler_motion.errors import ConfigError
 from crawler_motion.mapping.mapper import MapperSettings
 from crawler_motion.mapping.obstacles import step_threshold
+from crawler_motion.mapping.odometry import OdometryLimits
 from crawler_motion.mapping.points import NoiseModel
 from crawler_motion.model.config import Config
 from crawler_motion.runtime.parameters import ParamSpec, not_empty, validate_parameters
@@ -56,6 +57,18 @@ def mapper_parameters(cfg: Config) -> tuple[ParamSpec, ...]:
         ParamSpec("scan_queue", 4, "scans held for odometry at or after their stamp at most; "
                   "one more drops the oldest held (counted)", read_only=True, minimum=0,
                   maximum=100),
+        ParamSpec("odom_future_tolerance", 0.5, "an odometry sample stamped later than the "
+                  "node's clock by more is refused [s]", read_only=True, minimum=0.0,
+                  maximum=60.0, unit="s"),
+        ParamSpec("odom_max_position", 1e5, "an odometry position farther from the origin "
+                  "(per axis) is refused [m]", read_only=True, minimum=1.0, maximum=1e7,
+                  unit="m"),
+        ParamSpec("odom_max_speed", 2.0, "an odometry sample farther from the last one than "
+                  "this speed (plus 0.2 m) allows is refused as a jump [m/s]", read_only=True,
+                  minimum=0.01, maximum=100.0, unit="m/s"),
+        ParamSpec("odom_reset_samples", 10, "this many refused samples in a row that agree with "
+                  "each other are a new odometry stream: the map is cleared to unknown and "
+                  "follows it", read_only=True, minimum=2, maximum=1000),
         ParamSpec("publish_rate", 10.0, "terrain_map and terrain_heights rate [Hz]",
                   read_only=True, minimum=0.1, maximum=50.0, unit="Hz"),
     )
@@ -73,4 +86,9 @@ def mapper_settings(specs: tuple[ParamSpec, ...], values: Mapping[str, Any]
                           drift=v["drift"], noise=noise, obstacle_height=v["obstacle_height"],
                           confidence=v["confidence"],
                           ground_radius=v["ground_radius"], odom_window=v["odom_window"],
-                          pose_tolerance=v["pose_tolerance"], scan_queue=v["scan_queue"])
+                          pose_tolerance=v["pose_tolerance"], scan_queue=v["scan_queue"],
+                          odometry=OdometryLimits(
+                              future_tolerance=v["odom_future_tolerance"],
+                              max_position=v["odom_max_position"],
+                              max_speed=v["odom_max_speed"],
+                              reset_samples=v["odom_reset_samples"]))

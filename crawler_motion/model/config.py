@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +22,7 @@ from crawler_motion.model.gait_config import (  # re-exported: part of the loade
     GaitConfig,
     parse_gait,
 )
+from crawler_motion.model.medium import MediumConfig, parse_medium
 from crawler_motion.model.pose_limits import BodyPoseConfig, parse_body_pose
 from crawler_motion.model.yaml_values import number as _number
 from crawler_motion.model.yaml_values import positive as _positive
@@ -131,6 +132,8 @@ class Config:
     gait: GaitConfig
     body_pose: BodyPoseConfig
     source: str = "<memory>"
+    #: The medium as the body planner sees it (section ``medium``; `crawler_motion.model.medium`).
+    medium: MediumConfig = field(default_factory=MediumConfig)
 
 
 def _per_leg(section: Mapping[str, Any], legs: tuple[str, ...], what: str) -> list[Any]:
@@ -233,7 +236,8 @@ def load_config(path: str | Path | None = None) -> Config:
     if calibration is not None:  # relative to robot.yaml
         robot = with_calibration(robot, file.parent / str(calibration))
     body_pose = parse_body_pose(_section(data, "body_pose", str(file)), f"{file}: body_pose")
-    return Config(robot=robot, gait=gait, body_pose=body_pose, source=str(file))
+    medium = parse_medium(data.get("medium"), f"{file}: medium")
+    return Config(robot=robot, gait=gait, body_pose=body_pose, source=str(file), medium=medium)
 
 
 @dataclass(frozen=True)

@@ -78,11 +78,29 @@ class GaitConfig:
     #: By gait: the table's own default swing time [s] (key ``swing_time`` of a table, within
     #: ``swing_time_range``); without it a walk of the gait defaults to ``swing_time``.
     swings: dict[str, float] = field(default_factory=dict)
+    #: By gait: the table's own default stride [m] (key ``stride`` of a table, within
+    #: ``max_stride``); without it a walk of the gait defaults to ``stride``.
+    strides: dict[str, float] = field(default_factory=dict)
+    #: By gait: the table's own default stance profile (key ``stance_profile`` of a table).
+    stance_profiles: dict[str, str] = field(default_factory=dict)
+    #: Gaits of pairs whose body motion is planned from the zero-moment point (key ``body:
+    #: zmp`` of a table; `crawler_motion.motion.zmp`): the body sways so that the ZMP of the
+    #: inverted pendulum on the two stance feet stays on their support line.
+    zmp_gaits: frozenset[str] = frozenset()
 
     def swing_time_of(self, gait: str) -> float:
         """The default swing time [s] of a walk of ``gait``: its table's own, else
         ``swing_time``."""
         return self.swings.get(gait, self.swing_time)
+
+    def stride_of(self, gait: str) -> float:
+        """The default stride [m] of a walk of ``gait``: its table's own, else ``stride``."""
+        return self.strides.get(gait, self.stride)
+
+    def stance_profile_of(self, gait: str) -> str:
+        """The default stance profile of a walk of ``gait``: its table's own, else
+        ``stance_profile``."""
+        return self.stance_profiles.get(gait, self.stance_profile)
 
 
 def _parse_gaits(data: Mapping[str, Any], legs: tuple[str, ...], where: str
@@ -128,6 +146,36 @@ def _parse_sway_weights(data: Mapping[str, Any], gaits: Mapping[str, tuple[tuple
                               f"swing leaves two feet on the ground (a support line), got "
                               f"groups {[list(g) for g in gaits[name]]}; remove it")
     return weights
+
+
+#: The values of a table's ``body`` key: how the body moves in a walk of the gait.
+BODY_PLANS: tuple[str, ...] = ("plan", "zmp")
+
+
+def _parse_table_choices(data: Mapping[str, Any], key: str, allowed: tuple[str, ...],
+                         where: str) -> dict[str, str]:
+    """The phase tables' own ``key`` (one of ``allowed``), by gait."""
+    values: dict[str, str] = {}
+    for name, table in _section(data, "gaits", where).items():
+        if isinstance(table, Mapping) and key in table:
+            if table[key] not in allowed:
+                raise ConfigError(f"{where}.gaits.{name}.{key} must be one of {list(allowed)}, "
+                                  f"got {table[key]!r}")
+            values[str(name)] = str(table[key])
+    return values
+
+
+def _parse_zmp_gaits(data: Mapping[str, Any], gaits: Mapping[str, tuple[tuple[str, ...], ...]],
+                     n_legs: int, where: str) -> frozenset[str]:
+    """The tables with ``body: zmp``: only a gait whose every swing leaves a support line."""
+    bodies = _parse_table_choices(data, "body", BODY_PLANS, where)
+    zmp = frozenset(name for name, body in bodies.items() if body == "zmp")
+    for name in zmp:
+        if any(n_legs - len(group) != 2 for group in gaits[name]):
+            raise ConfigError(f"{where}.gaits.{name}.body: zmp applies to a gait whose every "
+                              f"swing leaves two feet on the ground (a support line), got "
+                              f"groups {[list(g) for g in gaits[name]]}; use body: plan")
+    return zmp
 
 
 def _parse_profiles(data: Mapping[str, Any], where: str) -> dict[str, ProfileConfig]:
@@ -178,7 +226,10 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
         stance_profile=str(data.get("stance_profile", "rest")),
         transfers=_parse_table_values(data, "transfer_time", " s", where),
         sway_weights=_parse_sway_weights(data, gaits, len(legs), where),
-        swings=_parse_table_values(data, "swing_time", " s", where))
+        swings=_parse_table_values(data, "swing_time", " s", where),
+        strides=_parse_table_values(data, "stride", " m", where),
+        stance_profiles=_parse_table_choices(data, "stance_profile", STANCE_PROFILES, where),
+        zmp_gaits=_parse_zmp_gaits(data, gaits, len(legs), where))
     if cfg.stance_profile not in STANCE_PROFILES:
         raise ConfigError(f"{where}.stance_profile must be one of {list(STANCE_PROFILES)}, got "
                           f"{cfg.stance_profile!r}")
@@ -191,6 +242,10 @@ def parse_gait(data: Mapping[str, Any], legs: tuple[str, ...], where: str = "gai
         if not cfg.swing_time_range[0] <= value <= cfg.swing_time_range[1]:
             raise ConfigError(f"{where}.gaits.{name}.swing_time must be within "
                               f"swing_time_range {list(cfg.swing_time_range)} s, got {value}")
+    for name, value in cfg.strides.items():
+        if value > cfg.max_stride:
+            raise ConfigError(f"{where}.gaits.{name}.stride must be within [0, max_stride = "
+                              f"{cfg.max_stride:g}] m, got {value}")
     if cfg.gait not in gaits:
         raise ConfigError(f"{where}.gait '{cfg.gait}' is not one of {sorted(gaits)}")
     if cfg.profile not in profiles:

@@ -31,6 +31,7 @@ from crawler_motion.motion.sway import creep_order
 from crawler_motion.motion.trajectory import Piecewise
 from crawler_motion.motion.walk_options import MIN_TRANSFER_TIME, is_crawl, sways
 from crawler_motion.motion.walk_params import WalkParams, validate_params
+from crawler_motion.motion.zmp import SETTLE_TIME
 
 __all__ = ["CHECK_PERIOD", "GaitSequencer", "Slot", "SlotPlan", "WalkParams", "WalkPlan",
            "check_trajectories", "iter_walk", "plan_walk", "standing_pose", "transfer_rate",
@@ -158,6 +159,8 @@ class GaitSequencer:
             self.phase, group, self._group(self._group_index + 1),
             (start, mid, mid - (inc - inc_swing) * stride), slot_time, p.swing_time, rate,
             self.phase == "stop" and k == n - 2, self._sways(p)), p)
+        if plan.final and p.gait in self.cfg.gait.zmp_gaits and not plan.sways:
+            plan = replace(plan, duration=plan.duration + SETTLE_TIME)  # the sway ends standing
         slot = self._builder.build(plan, p, stride, 1.0 / float(p.stance_time))  # type: ignore[arg-type]
         self.offsets = slot.offsets_end
         self._slot_params = p

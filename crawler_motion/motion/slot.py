@@ -36,11 +36,19 @@ from crawler_motion.motion.trajectory import (
     SwingShape,
     glide_segment,
     minus_path,
+    minus_segments,
     rest_segment,
     swing_segments,
 )
 from crawler_motion.motion.walk_options import is_crawl
 from crawler_motion.motion.walk_params import WalkParams
+from crawler_motion.motion.zmp import (
+    FALLBACK_SCALES,
+    PREVIEW,
+    SwayPlan,
+    ZmpWeights,
+    plan_slot_sway,
+)
 
 #: Shortest dwell that counts [s] (below it: rounding of the slot's time split).
 DWELL_EPS = 1e-12
@@ -53,6 +61,9 @@ REACH_MARGIN = 0.005
 #: body along them, tried in order (`SlotBuilder._line_sways`); if none fits, the nearest
 #: points (the sway without a ``sway_weight``).
 LINE_SWAY_SHARES = (1.0, 0.75, 0.5, 0.25)
+#: Where a steady walk lands a swinging foot: this share of its stride vector ahead of its
+#: standing point (`gait.GaitSequencer`).
+STEADY_TARGET = 0.5
 #: A check of a slot's legs (robot, legs, what) that raises GaitError: `gait.check_trajectories`.
 SlotCheck = Callable[[RobotConfig, Sequence[Any], str], None]
 
@@ -126,11 +137,16 @@ class SlotBuilder:
         self._centres = standing  # foot centre targets at the end of the last slot [m]
         self._sway = np.zeros(2)  # body sway at the end of the last slot [m]
         self._velocity = np.zeros((self.robot.n_legs, 3))  # centres' velocities then [m/s]
+        #: The ZMP sway's state (position, velocity, acceleration ``(3, 2)``) at the end of
+        #: the last slot (`crawler_motion.motion.zmp`; zero for other gaits).
+        self._zmp_state = np.zeros((3, 2))
 
     def build(self, plan: SlotPlan, p: WalkParams, stride: np.ndarray, speed: float) -> Slot:
         """The slot of ``plan`` with parameters ``p``, per-leg stride vectors ``stride``
         ``(n_legs, 2)`` [m] and ``speed``: the stance feet's steady travel per second as a
         share of their stride [1/s] (continuous stance)."""
+        if p.gait in self.cfg.gait.zmp_gaits and plan.group and not plan.sways:
+            return self._build_zmp(plan, p, stride, speed)
         slot, state = self._build(plan, p, stride, speed, LINE_SWAY_SHARES)
         rest = LINE_SWAY_SHARES[LINE_SWAY_SHARES.index(state[-1]) + 1:] if state[-1] else None
         shares = [] if rest is None else [*rest, 0.0]
@@ -142,6 +158,56 @@ class SlotBuilder:
                 slot, state = self._build(plan, p, stride, speed, (shares.pop(0),))
         self._touch, self._centres, self._sway, self._velocity, _ = state
         return slot
+
+    def _build_zmp(self, plan: SlotPlan, p: WalkParams, stride: np.ndarray, speed: float
+                   ) -> Slot:
+        """The slot of a gait planned from the zero-moment point (`crawler_motion.motion.zmp`):
+        the walk's slot without sway, minus the sway that keeps the ZMP on the support line.
+        If the joint limits or rates refuse it, the sway is planned again smaller (the sway
+        terms' weights times each of `zmp.FALLBACK_SCALES`, each still C² from the last
+        slot); the smallest is kept, and the walk's own limit check refuses it if it still
+        does not fit (as any walk beyond the limits)."""
+        plain, state = self._build(plan, p, stride, speed, (0.0,))
+        medium = self.cfg.medium
+        omega2 = medium.omega2(float(p.body_height))  # type: ignore[arg-type]
+        stance = [i for i in range(self.robot.n_legs) if i not in plan.group]
+        breaks = plain.legs[plan.group[0]].breaks
+        knots = np.unique(np.concatenate((breaks, (breaks[:-1] + breaks[1:]) / 2)))
+        last = int(np.argmin(np.abs(knots - plan.duration)))
+        center = self.robot.standing_feet(p.body_height)[:, :2]
+        velocity = -stride * speed  # the stance feet's steady velocity in the plan frame
+        landing = list(plan.group)
+        landed = center[landing] + plan.offsets[2][landing]
+        steady = center[stance] + STEADY_TARGET * stride[stance]
+        ahead = [(landed, velocity[landing]), (steady, velocity[stance])][:PREVIEW]
+        base = ZmpWeights()
+        for scale in FALLBACK_SCALES:
+            weights = ZmpWeights(base.line, base.sway * scale, base.accel * scale)
+            sway = plan_slot_sway(plain.contacts, stance, knots, plan.swing_time,
+                                  self._zmp_state, plan.final, omega2, medium.zmp_shift,
+                                  weights, ahead)
+            slot = self._swayed(plain, sway, last)
+            try:
+                if self._check is not None:
+                    self._check(self.robot, slot.legs, "the slot")
+            except GaitError:
+                continue
+            break
+        self._touch, self._centres, self._sway, self._velocity, _ = state
+        self._zmp_state = sway.states[last]
+        return slot
+
+    @staticmethod
+    def _swayed(plain: Slot, sway: SwayPlan, upto: int) -> Slot:
+        """``plain`` (a slot without sway) seen from a body that sways by the first ``upto``
+        intervals of ``sway``."""
+        path = sway.segments(upto)
+        legs = tuple(Piecewise(minus_segments(leg.segments, path)) for leg in plain.legs)
+        contacts = tuple(Piecewise(minus_segments(c.segments, path)) for c in plain.contacts)
+        return Slot(kind=plain.kind, group=plain.group, offsets_start=plain.offsets_start,
+                    offsets_end=plain.offsets_end, legs=legs, duration=plain.duration,
+                    swing_time=plain.swing_time, params=plain.params, contacts=contacts,
+                    sway=Piecewise(path))
 
     def _build(self, plan: SlotPlan, p: WalkParams, stride: np.ndarray, speed: float,
                shares: tuple[float, ...]) -> tuple[Slot, tuple[Any, ...]]:

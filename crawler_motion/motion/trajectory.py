@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
@@ -251,6 +252,36 @@ def minus_path(segments: Sequence[Segment], path: Segment) -> list[Segment]:
                for x in (seg.coeffs, part)]
         out.append(Segment(pad[0] - pad[1], seg.duration, seg.phase))
         t += seg.duration
+    return out
+
+
+#: Breakpoints closer than this are one [s] (`minus_segments`).
+BREAK_EPS = 1e-9
+
+
+def minus_segments(segments: Sequence[Segment], path: Sequence[Segment]) -> list[Segment]:
+    """``segments`` minus ``path``, both laid end to end from 0 over the same time, split at
+    the breakpoints of both (each piece keeps the phase of its part of ``segments``): e.g. a
+    foot's planned path seen from a body that sways by ``path`` [m]."""
+    def ends(parts: Sequence[Segment]) -> np.ndarray:
+        return np.cumsum([0.0] + [seg.duration for seg in parts])
+
+    mine, theirs = ends(segments), ends(path)
+    if abs(mine[-1] - theirs[-1]) > 1e-6:
+        raise TrajectoryError(f"cannot subtract a path of {theirs[-1]:g} s from segments of "
+                              f"{mine[-1]:g} s")
+    breaks = [0.0]
+    for t in sorted(np.concatenate((mine[1:], theirs[1:]))):
+        if t - breaks[-1] > BREAK_EPS:
+            breaks.append(float(t))
+    breaks[-1] = float(mine[-1])
+    out = []
+    for t0, t1 in pairwise(breaks):
+        mid = (t0 + t1) / 2
+        i = min(int(np.searchsorted(mine, mid)) - 1, len(segments) - 1)
+        j = min(int(np.searchsorted(theirs, mid)) - 1, len(path) - 1)
+        own = restricted(segments[i], t0 - mine[i], t1 - t0)
+        out.extend(minus_path([own], restricted(path[j], t0 - theirs[j], t1 - t0)))
     return out
 
 

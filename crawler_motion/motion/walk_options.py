@@ -57,7 +57,8 @@ class WalkOption:
 
     ``commands``: the gait commands taking it as a JSON key; ``parameter``: the description
     of the planner parameter of the same name (None: not a parameter); ``default``: its value
-    when a tool does not set it (None: the tool leaves it unset).
+    when a tool does not set it (None: the tool leaves it unset): for the default gait's own
+    table values (stride, swing time, stance profile), those of the default gait.
     """
 
     name: str
@@ -112,7 +113,7 @@ WALK_OPTIONS: tuple[WalkOption, ...] = (
                parameter="default swing profile of a new walk", default=lambda c: c.gait.profile),
     WalkOption("stride", _NUMBER, "stride length", "m", Sign.NONNEGATIVE,
                lambda c: (0.0, c.gait.max_stride), parameter="default stride of a new walk",
-               default=lambda c: c.gait.stride),
+               default=lambda c: c.gait.stride_of(c.gait.gait)),
     WalkOption("heading", _NUMBER, "direction of travel in the body frame (0: forward)", "rad",
                bounds=lambda c: (-math.pi, math.pi), default=lambda c: 0.0),
     WalkOption("turn", _NUMBER, "yaw per step", "rad",
@@ -126,7 +127,7 @@ WALK_OPTIONS: tuple[WalkOption, ...] = (
                default=lambda c: c.gait.arc),
     WalkOption("swing_time", _NUMBER, "swing time", "s", Sign.POSITIVE,
                lambda c: c.gait.swing_time_range, parameter="default swing time of a new walk",
-               default=lambda c: c.gait.swing_time),
+               default=lambda c: c.gait.swing_time_of(c.gait.gait)),
     WalkOption("stance_time", _NUMBER, "stance time", "s", Sign.POSITIVE,
                lambda c: (c.gait.swing_time_range[0], _most_stance(c)),
                default=lambda c: c.gait.stance_time),
@@ -135,7 +136,7 @@ WALK_OPTIONS: tuple[WalkOption, ...] = (
                "(constant speed, ramps at start and stop; gaits without transfer)",
                choices=lambda c: STANCE_PROFILES,
                parameter="default stance profile of a new walk",
-               default=lambda c: c.gait.stance_profile),
+               default=lambda c: c.gait.stance_profile_of(c.gait.gait)),
     WalkOption("margin", _NUMBER, "static stability margin of a crawl gait (the body centre "
                "inside the support polygon)", "m", Sign.NONNEGATIVE,
                lambda c: (0.0, MAX_MARGIN),

@@ -44,13 +44,14 @@ class WalkParams:
 
     @classmethod
     def defaults(cls, gait_cfg: GaitConfig, **overrides: object) -> WalkParams:
-        """Walk parameters from the config defaults, with ``overrides`` (the swing time
-        defaults to that of the walk's gait, `GaitConfig.swing_time_of`)."""
+        """Walk parameters from the config defaults, with ``overrides`` (the swing time,
+        stride and stance profile default to those of the walk's gait, `GaitConfig.swing_time_of`,
+        `GaitConfig.stride_of`, `GaitConfig.stance_profile_of`)."""
         gait = str(overrides.get("gait", gait_cfg.gait))
-        base = cls(gait=gait_cfg.gait, profile=gait_cfg.profile, stride=gait_cfg.stride,
+        base = cls(gait=gait_cfg.gait, profile=gait_cfg.profile, stride=gait_cfg.stride_of(gait),
                    lift=gait_cfg.lift, arc=gait_cfg.arc, swing_time=gait_cfg.swing_time_of(gait),
                    stance_time=None, margin=gait_cfg.stability_margin,
-                   stance_profile=gait_cfg.stance_profile)
+                   stance_profile=gait_cfg.stance_profile_of(gait))
         return replace(base, **overrides)  # type: ignore[arg-type]
 
 

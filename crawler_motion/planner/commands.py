@@ -76,13 +76,20 @@ class Command:
         A ``stance_time`` in ``base`` that the command does not set is recomputed from the
         new swing time and gait (``None``), unless the command sets it; a new gait without a
         ``swing_time`` takes its own default swing time if ``base`` has the old gait's
-        (`GaitConfig.swing_time_of`; a chosen one is kept).
+        (`GaitConfig.swing_time_of`; a chosen one is kept), and its own stance profile and
+        stride likewise (`GaitConfig.stance_profile_of`, `GaitConfig.stride_of`).
         """
         fields = dict(self.overrides)
         gait = fields.get("gait", base.gait)
         if ("swing_time" not in fields and gait != base.gait and gait in cfg.gait.gaits
                 and base.swing_time == cfg.gait.swing_time_of(base.gait)):
             fields["swing_time"] = cfg.gait.swing_time_of(gait)
+        if ("stance_profile" not in fields and gait != base.gait and gait in cfg.gait.gaits
+                and base.stance_profile == cfg.gait.stance_profile_of(base.gait)):
+            fields["stance_profile"] = cfg.gait.stance_profile_of(gait)
+        if ("stride" not in fields and gait != base.gait and gait in cfg.gait.gaits
+                and base.stride == cfg.gait.stride_of(base.gait)):
+            fields["stride"] = cfg.gait.stride_of(gait)
         if "stance_time" not in fields and ({"swing_time", "gait"} & fields.keys()):
             fields["stance_time"] = None
         try:

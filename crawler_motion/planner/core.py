@@ -10,7 +10,8 @@ pause flag, status journal).
 ``paused`` (a motor-manager fault) is a flag, not a state: while it is set no new gait slot
 starts (the current slot finishes, then the pose is held at the slot boundary) and no walk or
 move is accepted. Every refusal raises `CommandError`, leaves the state unchanged and is
-reported in `status` and `pop_events`.
+reported in `status` and `pop_events`. One exception: a ``stand`` that only lacks the first
+measured joint state is held (`held_stand`) and starts when the state arrives.
 
 Per tick the active gait slot is evaluated by `fastpath.Track` (prepared when the slot is
 planned) and turned into joint angles and rates by `fastpath.FastKinematics.solve` (the
@@ -38,8 +39,10 @@ from crawler_motion.planner.commands import Command, parse_gait_command
 from crawler_motion.planner.contacts import ContactMonitor
 from crawler_motion.planner.context import JointTarget, PlannerContext
 from crawler_motion.planner.driver_view import DriverChange, DriverReport, DriverView
+from crawler_motion.planner.held_stand import HeldStand
 from crawler_motion.planner.moves import MEASUREMENT_MAX_AGE, MoveController, sitting_pose
 from crawler_motion.planner.next_slot import AheadJob, AheadPlan
+from crawler_motion.planner.readouts import CoreReadouts
 from crawler_motion.planner.requests import WalkRequests
 from crawler_motion.planner.resume import Resumer
 from crawler_motion.planner.state import (
@@ -49,7 +52,6 @@ from crawler_motion.planner.state import (
     MOVING,
     SITTING,
     WALK_STATES,
-    PlannerState,
 )
 from crawler_motion.planner.status_report import planner_status
 from crawler_motion.planner.walk import WalkController
@@ -57,7 +59,7 @@ from crawler_motion.planner.walk import WalkController
 __all__ = ["JointTarget", "PlannerCore"]
 
 
-class PlannerCore:
+class PlannerCore(CoreReadouts):
     """Planner state machine; see the module docstring.
 
     ``rate_hz`` is the tick rate the caller intends (used to count late ticks);
@@ -87,6 +89,7 @@ class PlannerCore:
         # fed by the node with the joint states; read by the walk's touch-down
         self.contacts = self.walk.foothold.monitor = ContactMonitor(self.robot)
         self._stand_height = self.robot.body_height
+        self.held_stand = HeldStand()  # a stand sent before the first measured state
         self._now = -math.inf
         self._last_tick = -math.inf
         self._late_ticks = 0
@@ -114,8 +117,15 @@ class PlannerCore:
 
     # ---------------------------------------------------------------- inputs
     def set_measured(self, positions: np.ndarray, now: float) -> None:
-        """The latest measured joint angles (12 or (n_legs, 3)) [rad], at steady time ``now``."""
+        """The latest measured joint angles (12 or (n_legs, 3)) [rad], at steady time ``now``;
+        a held ``stand`` starts from them."""
         self.moves.set_measured(positions, now)
+        height = self.held_stand.take(now, self.ctx.journal)
+        if height is not None:
+            try:
+                self.command(Command("stand", body_height=height), now)
+            except CommandError:
+                pass  # refused now for another reason: recorded in the status
 
     def set_paused(self, paused: bool, now: float, reason: str = "") -> None:
         """Pause (motor-manager fault) or resume; see the module docstring. A pause of a
@@ -147,7 +157,12 @@ class PlannerCore:
     def command(self, cmd: Command, now: float) -> None:
         """Execute a parsed command at ``now``; refusals raise `CommandError`."""
         now = self._clock(now)
+        self.held_stand.clear()  # the newest command replaces a held stand
         self.resumer.admit(cmd.kind, self.driver, now)
+        if cmd.kind == "stand" and self.moves.waits_for_first_state(now, "stand"):
+            height = self.defaults.body_height if cmd.body_height is None else cmd.body_height
+            self.held_stand.hold(float(height), now, self.ctx.journal)  # type: ignore[arg-type]
+            return
         if cmd.kind == "estop":
             self.estop(now)
         elif cmd.kind == "reset":
@@ -199,6 +214,7 @@ class PlannerCore:
             self._late_ticks += 1
         self.resumer.before_tick(self._last_tick, now, self.rate_hz)
         self._last_tick = now
+        self.held_stand.expire(now, self.ctx.journal)
         state = self.ctx.state
         if self.resumer.active:
             return self.resumer.tick(now)
@@ -246,35 +262,6 @@ class PlannerCore:
         """State, gait, profile, step k of N, pause, resume, driver, last refusal
         (`status_report.planner_status`)."""
         return planner_status(self, self._late_ticks, self._stand_height)
-
-    @property
-    def state(self) -> PlannerState:
-        """The current state."""
-        return self.ctx.state
-
-    @property
-    def paused(self) -> bool:
-        """True while a motor-manager fault pauses the gait."""
-        return self.ctx.paused
-
-    @property
-    def pause_reason(self) -> str:
-        """Why the gait is paused ("" when not paused)."""
-        return self.ctx.pause_reason
-
-    @property
-    def revision(self) -> int:
-        """Incremented on every change of `status` (except ``late_ticks``)."""
-        return self.ctx.journal.revision
-
-    @property
-    def walk_params(self) -> WalkParams | None:
-        """Parameters of the slot being walked (None when not walking)."""
-        return self.walk.params
-
-    def pop_events(self) -> list[tuple[str, str]]:
-        """Events since the last call, as ``(level, message)``; level info, warn or error."""
-        return self.ctx.journal.pop_events()
 
     # ---------------------------------------------------------------- internals
     def _clock(self, now: float) -> float:

@@ -169,6 +169,16 @@ class MoveController:
                                        f"measured pose")
         return move
 
+    @staticmethod
+    def _no_state(what: str) -> str:
+        return (f"{what} refused: no measured joint_states yet; the move starts from the "
+                f"measured pose")
+
+    def waits_for_first_state(self, now: float, what: str) -> bool:
+        """True when a ``what`` move at ``now`` [s] is refused only because no joint state
+        has been measured yet (the planner holds a ``stand`` until one arrives)."""
+        return self._measured is None and self._refusal(now, what) == self._no_state(what)
+
     def _refusal(self, now: float, what: str) -> str | None:
         """Why a ``what`` move cannot start at ``now`` [s], or None."""
         ctx = self.ctx
@@ -181,8 +191,7 @@ class MoveController:
         if ctx.state == MOVING and self.move is not None:
             return f"{what} refused: a {self._target} move is in progress; wait for it to end"
         if self._measured is None:
-            return (f"{what} refused: no measured joint_states yet; the move starts from the "
-                    f"measured pose")
+            return self._no_state(what)
         age = now - self._measured_at
         if age > self.measurement_max_age:
             return (f"{what} refused: the last joint_states is {age:.2f} s old (max "

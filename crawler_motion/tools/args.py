@@ -38,3 +38,13 @@ def check_choice(prog: str, flag: str, value: str, choices: Sequence[str]) -> No
         sys.stderr.write(f"{prog}: error: argument {flag}: invalid choice: {value!r} "
                          f"(choose from {shown})\n")
         raise SystemExit(2)
+
+
+def add_gait_option(parser: argparse.ArgumentParser) -> None:
+    """``--gait``: a phase table of the shipped robot.yaml (its choices and its default gait
+    come from the config, so a table added there is offered here)."""
+    from crawler_motion.model.config import load_config
+
+    gait = load_config().gait
+    parser.add_argument("--gait", choices=tuple(gait.gaits), default=gait.gait,
+                        help=f"gait (a phase table of the config; default {gait.gait})")

@@ -52,6 +52,7 @@ from enum import Enum
 import numpy as np
 
 from crawler_motion.tools import wake_floor
+from crawler_motion.tools.args import add_gait_option
 from crawler_motion.tools.e2e_analysis import (
     Matching,
     PeriodStats,
@@ -356,7 +357,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="comma-separated: two-node, controller (default both)")
     parser.add_argument("--seconds", type=float, default=15.0,
                         help="measured walking time per rate [s] (default 15)")
-    parser.add_argument("--gait", choices=("diagonal", "wave"), default="diagonal")
+    add_gait_option(parser)
     parser.add_argument("--tick-priority", type=int, default=0,
                         help="the planner's tick_priority (1-99: SCHED_FIFO tick thread, "
                              "the planner and driver processes one below; default 0: normal "

@@ -32,6 +32,7 @@ from crawler_motion.testing.stack import (
     StackSpec,
     random_domain,
 )
+from crawler_motion.tools.args import add_gait_option
 
 PROG = "crawler-motion demo"
 #: Driver watchdog of the demo [s] (see `STACK_COMMAND_TIMEOUT`).
@@ -53,7 +54,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """The demo's options (``--rate`` checked to lie in [1, 1000] Hz)."""
     parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=positive_int, default=3, help="gait cycles (default 3)")
-    parser.add_argument("--gait", choices=("diagonal", "wave"), default="diagonal")
+    add_gait_option(parser)
     parser.add_argument("--rate", type=float, default=100.0, help="planner rate [Hz]")
     parser.add_argument("--interface", default="udp_multicast")
     parser.add_argument("--channel", default=None, help="bus channel (default per interface)")

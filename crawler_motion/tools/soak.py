@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from crawler_motion.testing.stack import STACK_COMMAND_TIMEOUT
+from crawler_motion.tools.args import add_gait_option
 from crawler_motion.tools.console import describe
 from crawler_motion.tools.e2e_analysis import PLANNER_COUNTERS, counters_text, planner_counters
 from crawler_motion.tools.e2e_stack import Stack
@@ -70,7 +71,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                         help="walking time before the first memory/CPU sample [s]")
     parser.add_argument("--progress", type=float, default=30.0,
                         help="period of the progress line [s]")
-    parser.add_argument("--gait", choices=("diagonal", "wave"), default="diagonal")
+    add_gait_option(parser)
     parser.add_argument("--command-timeout", type=float, default=STACK_COMMAND_TIMEOUT,
                         help="the driver's command watchdog [s] (default: the demo's, "
                              f"{STACK_COMMAND_TIMEOUT:g})")

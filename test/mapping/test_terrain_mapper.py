@@ -7,6 +7,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
+from crawler_motion.mapping.odometry import OdometryVerdict
 from crawler_motion.mapping.mapper import (
     MapperSettings,
     Pose,
@@ -103,12 +104,14 @@ def test_bad_scans_are_skipped_with_counted_reasons(mount: Mount) -> None:
     assert mapper.add_scan(good, 2.2) is SkipReason.AHEAD_OF_ODOMETRY
     mixed = np.vstack([good, [[np.inf, 0, 0], [np.nan, 1, 2]]])
     assert mapper.add_scan(mixed, 1.96) is ScanFate.FUSED
-    assert mapper.add_odometry(Pose(1.0, np.eye(3), np.zeros(3))) is SkipReason.STALE
+    assert mapper.add_odometry(Pose(1.0, np.eye(3), np.zeros(3))) is OdometryVerdict.ODOM_STALE
     bad_pose = Pose(3.0, np.full((3, 3), np.nan), np.zeros(3))
-    assert mapper.add_odometry(bad_pose) is SkipReason.BAD_POSE
+    assert mapper.add_odometry(bad_pose) is OdometryVerdict.BAD_POSE
     assert dict(mapper.skipped) == {
         SkipReason.NO_ODOMETRY: 1, SkipReason.EMPTY: 1, SkipReason.ALL_NON_FINITE: 1,
-        SkipReason.NON_FINITE_POINTS: 5, SkipReason.STALE: 2,
-        SkipReason.AHEAD_OF_ODOMETRY: 1, SkipReason.BAD_POSE: 1}
+        SkipReason.NON_FINITE_POINTS: 5, SkipReason.STALE: 1,
+        SkipReason.AHEAD_OF_ODOMETRY: 1}
+    assert dict(mapper.odometry_refused) == {OdometryVerdict.ODOM_STALE: 1,
+                                             OdometryVerdict.BAD_POSE: 1}
     assert mapper.scans_fused == 1 and mapper.grid.known.sum() == 2
     assert np.isfinite(mapper.grid.height).all()

@@ -270,6 +270,17 @@ BAD = [
     ("range reversed", {"robot.body_height_range": [0.08, 0.06]},
      ["robot.stance.body_height", "body_height_range"]),
     ("range not positive", {"robot.body_height_range": [0.0, 0.09]}, ["robot.body_height_range"]),
+    # a table's own keys
+    ("zmp body on a crawl", {"gait.gaits.wave.body": "zmp"},
+     ["gait.gaits.wave.body: zmp", "two feet on the ground"]),
+    ("unknown body plan", {"gait.gaits.diagonal.body": "fast"},
+     ["gait.gaits.diagonal.body must be one of ['plan', 'zmp']", "'fast'"]),
+    ("unknown table stance profile", {"gait.gaits.diagonal.stance_profile": "glide"},
+     ["gait.gaits.diagonal.stance_profile must be one of"]),
+    ("table stride beyond max_stride", {"gait.gaits.diagonal.stride": 0.09},
+     ["gait.gaits.diagonal.stride must be within [0, max_stride = 0.08] m", "0.09"]),
+    ("negative table stride", {"gait.gaits.diagonal.stride": -0.01},
+     ["gait.gaits.diagonal.stride must be >= 0"]),
 ]
 
 
@@ -321,6 +332,9 @@ GOOD = [
     ("a diagonal sway weight of 0", {"gait.gaits.diagonal.sway_weight": 0.0}),
     ("a gait swing time at the range's bottom", {"gait.gaits.wave.swing_time": 0.1}),
     ("a gait swing time at the range's top", {"gait.gaits.wave.swing_time": 5.0}),
+    ("a zmp diagonal with the rest stance", {"gait.gaits.diagonal.body": "zmp",
+                                             "gait.gaits.diagonal.stance_profile": "rest"}),
+    ("a table stride at max_stride", {"gait.gaits.diagonal.stride": 0.08}),
 ]
 
 
@@ -346,10 +360,21 @@ def test_valid_variants_load(changes, tmp_path):
     assert cfg.gait.sway_weights == ({**shipped, "diagonal": changes[key]} if key in changes
                                      else shipped)
     key = "gait.gaits.wave.swing_time"
-    shipped = {"diagonal_sway": 0.4}
+    shipped = {"diagonal_sway": 0.4, "diagonal_zmp": 0.5}
     assert cfg.gait.swings == ({**shipped, "wave": changes[key]} if key in changes
                                else shipped)
     assert cfg.gait.swing_time_of("wave") == changes.get(key, cfg.gait.swing_time)
+    key = "gait.gaits.diagonal.stride"
+    shipped = {"diagonal_zmp": 0.05}
+    assert cfg.gait.strides == ({**shipped, "diagonal": changes[key]} if key in changes
+                                else shipped)
+    assert cfg.gait.stride_of("wave") == cfg.gait.stride
+    zmp = {"diagonal_zmp"} | ({"diagonal"} if "gait.gaits.diagonal.body" in changes else set())
+    assert cfg.gait.zmp_gaits == zmp
+    profiles = {"diagonal_zmp": "continuous"}
+    key = "gait.gaits.diagonal.stance_profile"
+    assert cfg.gait.stance_profiles == ({**profiles, "diagonal": changes[key]}
+                                        if key in changes else profiles)
 
 
 def test_the_body_pose_limits_load():

@@ -43,7 +43,8 @@ WALKS = [
     {"heading": 1.5708, "stride": 0.04},
     {"heading": -2.5, "turn": 0.2, "stride": 0.03, "lift": 0.015, "arc": 0.02},
     {"turn": -0.3, "stride": 0.0},
-    {"swing_time": 0.3, "stance_time": 0.9, "body_height": 0.08},
+    {"gait": "diagonal", "swing_time": 0.3, "stance_time": 0.9, "body_height": 0.08},
+    {"gait": "diagonal_sway"},
 ]
 
 

@@ -37,6 +37,7 @@ from crawler_motion.motion.gait import (
 )
 from crawler_motion.motion.trajectory import Piecewise
 from crawler_motion.motion.walk_options import MIN_TRANSFER_TIME, stance_time_range, sways
+from crawler_motion.motion.zmp import SETTLE_TIME
 
 CFG = load_config()
 ROBOT = CFG.robot
@@ -47,7 +48,9 @@ TOL = 1e-9  # [m] positions; velocities/accelerations scale with the slot time b
 
 
 def params(**overrides: object) -> WalkParams:
-    return WalkParams.defaults(GAIT, **overrides)
+    """A walk of the study's diagonal gait unless ``overrides`` names another (the default
+    gait, planned from the zero-moment point, has its own tests: test_zmp.py)."""
+    return WalkParams.defaults(GAIT, **{"gait": "diagonal", **overrides})
 
 
 def expected_strides(p: WalkParams) -> np.ndarray:
@@ -121,12 +124,15 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     np.testing.assert_allclose(slots[-1].offsets_end, 0.0, atol=1e-12)
     for a, b in pairwise(slots):
         np.testing.assert_array_equal(a.offsets_end, b.offsets_start)
+    zmp = v.gait in GAIT.zmp_gaits  # the ZMP body plan: a sway, and the last slot settles
+    continuous = v.stance_profile == "continuous"
     for s in slots[1:] if crawl else slots:
         assert s.swing_time == v.swing_time
         if crawl:  # transfers sized to the body's travel in them (GaitSequencer._timed) ...
             assert s.duration >= v.swing_time + MIN_TRANSFER_TIME - 1e-12
         else:
-            assert s.duration == pytest.approx(slot_time, rel=1e-12)
+            settle = SETTLE_TIME if zmp and s is slots[-1] else 0.0
+            assert s.duration == pytest.approx(slot_time + settle, rel=1e-12)
     if crawl:  # ... so that a steady cycle lasts as long as with equal transfers
         steady = [s.duration for s in slots if s.kind == "steady"]
         for k in range(0, len(steady), n):
@@ -166,7 +172,7 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     tau = t - starts[k_of]
     pos, vel, _ = states(legs, t)
     sway = Piecewise([seg for s in slots for seg in s.sway.segments]).evaluate(t)[0]
-    if not crawl:
+    if not (crawl or zmp):
         assert np.abs(sway).max() == 0.0
     off = pos[:, :, :2] + sway[:, None, :2] - stand[:, :2]  # planned points, without the sway
     in_group = np.array([[i in s.group for i in range(4)] for s in slots])
@@ -176,11 +182,14 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     assert np.abs(pos[..., 2] - ground)[on_ground].max() <= 1e-12
     assert np.abs(vel[..., 2])[on_ground].max() <= tol_v
     assert (pos[..., 2] - ground).min() >= -1e-12
-    # Every foot stays on its stride line within +- |S_i| / 2 (swing feet too).
+    # Every foot stays on its stride line within +- |S_i| / 2 (swing feet too, but in a
+    # continuous stance, whose swings leave and land moving with the stance feet: they pass
+    # beyond the ends, motion.continuous).
     for i in range(ROBOT.n_legs):
+        mine = on_ground[:, i] if continuous else np.ones(len(off), dtype=bool)
         if norms[i] > 1e-12:
             unit = strides[i] / norms[i]
-            along = off[:, i] @ unit
+            along = off[mine, i] @ unit
             across = off[:, i] @ np.array([-unit[1], unit[0]])
             assert np.abs(across).max() <= TOL
             assert np.abs(along).max() <= norms[i] / 2 + TOL, (LEGS[i], along, norms[i])
@@ -435,7 +444,8 @@ def test_a_crawl_without_time_to_transfer_is_refused():
 
 
 @pytest.mark.parametrize(("overrides", "swing"), [
-    ({}, GAIT.swing_time),  # the default gait (diagonal): the config's swing time
+    ({}, GAIT.swing_time_of(GAIT.gait)),  # the default gait (diagonal_zmp): its own
+    ({"gait": "diagonal"}, GAIT.swing_time),  # the config's swing time
     ({"gait": "wave"}, GAIT.swing_time),  # a table without its own
     ({"gait": "diagonal_sway"}, GAIT.swings["diagonal_sway"]),  # its table's own
     ({"gait": "diagonal_sway", "swing_time": 0.5}, 0.5),  # an explicit one wins
@@ -523,9 +533,13 @@ walks = st.fixed_dictionaries({
 
 
 def make_params(d: dict) -> WalkParams:
+    """The walk of ``d``; a gait whose default stance is continuous keeps its one stance
+    time (``stance_factor`` 1: the continuous stance has no dwell)."""
     d = dict(d)
-    d["stance_time"] = d.pop("stance_factor") * stance_time_range(CFG, d["gait"],
-                                                                  d["swing_time"])[0]
+    factor = d.pop("stance_factor")
+    if GAIT.stance_profile_of(d["gait"]) == "continuous":
+        factor = 1.0
+    d["stance_time"] = factor * stance_time_range(CFG, d["gait"], d["swing_time"])[0]
     return params(**d)
 
 

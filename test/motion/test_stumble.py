@@ -72,7 +72,9 @@ def _check_retry(retry: Retry, t_hit: float) -> None:
     assert plan.phase_at(retry.t_lower + 1e-6) == ["lower"]
 
 
-@pytest.mark.parametrize("t_hit", [0.01, 0.05, 0.35, 0.4])
+# near lift-off, and near touch-down: the latest hits with the stop and MIN_RETRY_TIME left
+@pytest.mark.parametrize("t_hit", [0.01, 0.05, SWING - SETTINGS.stop_time - MIN_RETRY_TIME - 0.05,
+                                   SWING - SETTINGS.stop_time - MIN_RETRY_TIME])
 def test_a_hit_near_lift_off_or_touch_down_stops_backs_off_lifts_higher_and_lands_as_planned(
         t_hit: float) -> None:
     backing = StumbleSettings(retreat=0.005)
@@ -93,7 +95,8 @@ def test_a_hit_near_lift_off_or_touch_down_stops_backs_off_lifts_higher_and_land
                                stopped[0][0, :2], atol=1e-12)
 
 
-@pytest.mark.parametrize("t_hit", [0.0, 0.1, 0.2, 0.28, T_LOWER - 0.01])
+@pytest.mark.parametrize("t_hit", [0.0, 0.1, 0.2, 0.28,
+                                   min(T_LOWER - 0.01, SWING - MIN_RETRY_TIME)])
 def test_the_vertical_only_retry_lifts_higher_on_the_planned_path(t_hit: float) -> None:
     retry = lift_swing(PLAN, SWING, t_hit, SETTINGS)
     assert retry is not None

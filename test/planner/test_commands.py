@@ -28,7 +28,9 @@ from crawler_motion.planner.commands import (
 CFG = load_config()
 G = CFG.gait
 NAMES = list(CFG.robot.joint_names)
-BASE = validate_params(WalkParams.defaults(G), CFG)
+#: The study's diagonal walk (the figures below are its timing; the default gait's own row:
+#: test_the_default_gait_takes_its_own_defaults).
+BASE = validate_params(WalkParams.defaults(G, gait="diagonal"), CFG)
 #: Examples per property test; FUZZ_EXAMPLES=100000 for a long run.
 EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "150"))
 
@@ -97,7 +99,7 @@ def test_parse_valid(text, expected):
     ('{"command": "walk", "turn": 0.3501}', "outside [-0.35, 0.35] rad"),
     ('{"command": "walk", "heading": 3.2}', "outside [-3.14159"),
     ('{"command": "walk", "gait": "gallop"}',
-     "'gait' must be one of ['diagonal', 'diagonal_sway', 'wave']"),
+     "'gait' must be one of ['diagonal', 'diagonal_sway', 'diagonal_zmp', 'wave']"),
     ('{"command": "walk", "profile": 1}', "'profile' must be one of"),
     ('{"command": "walk", "lift": 0.0009}', "'lift' = 0.0009 m is outside"),
     ('{"command": "walk", "arc": -0.001}', "'arc' = -0.001 m is outside"),
@@ -296,3 +298,20 @@ def test_joint_state_refused(names, positions, velocities, fragment):
     with pytest.raises(CommandError) as info:
         validate_joint_state(names, positions, velocities, NAMES)
     assert fragment in str(info.value)
+
+
+def test_the_default_gait_takes_its_own_defaults():
+    # the default walk and a walk command switching to and from it carry each table's own
+    # swing time, stride and stance profile
+    default = validate_params(WalkParams.defaults(G), CFG)
+    assert (default.gait, default.swing_time, default.stride, default.stance_profile) == (
+        "diagonal_zmp", G.swings["diagonal_zmp"], G.strides["diagonal_zmp"], "continuous")
+    back = parse_gait_command('{"command": "walk", "gait": "diagonal"}', CFG).apply(default, CFG)
+    assert (back.swing_time, back.stride, back.stance_profile) == (G.swing_time, G.stride,
+                                                                  G.stance_profile)
+    again = parse_gait_command('{"command": "walk", "gait": "diagonal_zmp"}', CFG).apply(back,
+                                                                                        CFG)
+    assert again == default
+    kept = parse_gait_command('{"command": "walk", "gait": "diagonal", "stride": 0.03}',
+                              CFG).apply(default, CFG)
+    assert kept.stride == 0.03  # a chosen one is kept

@@ -17,6 +17,7 @@ from crawler_motion.motion.fastpath import Track
 from crawler_motion.motion.gait import GaitSequencer, WalkParams, plan_walk, standing_pose
 from crawler_motion.planner import moves, next_slot, upfront
 from crawler_motion.planner.core import JointTarget, PlannerCore
+from crawler_motion.planner.held_stand import STAND_HOLD
 from crawler_motion.planner.moves import sitting_pose
 from crawler_motion.planner.next_slot import PLAN_AHEAD_HORIZON
 from crawler_motion.planner.state import (
@@ -37,7 +38,10 @@ DT = 0.01
 STAND = standing_pose(CFG)
 LO = ROBOT.lower_limits().reshape(-1)
 HI = ROBOT.upper_limits().reshape(-1)
-SLOT = 0.6  # default diagonal slot: (swing 0.6 + stance 0.6) / 2 groups
+SLOT = 0.6  # the study's diagonal slot: (swing 0.6 + stance 0.6) / 2 groups
+#: The walks of these state-machine tests: the study's diagonal gait (its timing is written
+#: out below); the default gait's own walk through the core: test_the_default_gait_*.
+DIAGONAL = WalkParams.defaults(CFG.gait, gait="diagonal")
 
 
 class Clock:
@@ -79,7 +83,7 @@ class Clock:
 
 
 def standing(t: float = 0.0, **kwargs) -> Clock:
-    clock = Clock(PlannerCore(CFG, 100.0, **kwargs), t)
+    clock = Clock(PlannerCore(CFG, 100.0, **{"defaults": DIAGONAL, **kwargs}), t)
     clock.measure(STAND)
     clock.send('{"command": "stand"}')
     clock.until(STANDING)
@@ -91,17 +95,47 @@ def positions(clock: Clock) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ stand / sit
-def test_idle_publishes_nothing_and_stand_needs_a_measurement():
+def test_idle_publishes_nothing_and_a_stand_before_the_first_state_is_held_then_refused():
     core = PlannerCore(CFG)
     assert core.tick(0.0) is None and core.state == IDLE
-    with pytest.raises(CommandError, match="no measured joint_states"):
-        core.submit('{"command": "stand"}', 0.0)
+    core.submit('{"command": "stand"}', 0.0)  # held, not refused
+    assert "stand held" in core.status()["last_event"]
     assert core.state == IDLE and core.tick(0.01) is None
-    assert "no measured joint_states" in core.status()["last_refusal"]
-    core.set_measured(STAND, 0.0)
-    with pytest.raises(CommandError, match=r"joint_states is 1\.50 s old"):
-        core.submit('{"command": "stand"}', 1.5)
+    assert core.tick(STAND_HOLD + 0.02) is None  # no state within the hold: refused
+    assert "no measured joint_states within 1 s" in core.status()["last_refusal"]
+    core.set_measured(STAND, STAND_HOLD + 0.03)  # too late: nothing starts by itself
     assert core.state == IDLE
+    with pytest.raises(CommandError, match=r"joint_states is 1\.50 s old"):
+        core.submit('{"command": "stand"}', STAND_HOLD + 1.53)
+    assert core.state == IDLE
+
+
+@pytest.mark.parametrize("wait", [0.0, 0.5, STAND_HOLD])
+def test_a_stand_sent_before_the_first_state_starts_when_it_arrives(wait):
+    clock = Clock(PlannerCore(CFG))
+    clock.send('{"command": "stand", "body_height": 0.08}')
+    clock.run(wait)
+    assert clock.core.state == IDLE
+    start = sitting_pose(CFG)
+    clock.core.set_measured(start, clock.t)
+    assert clock.core.state == MOVING
+    first = clock.tick()
+    np.testing.assert_array_equal(first.positions, start.reshape(-1))  # from the measured pose
+    clock.until(STANDING)
+    np.testing.assert_allclose(positions(clock)[-1], standing_pose(CFG, 0.08).reshape(-1),
+                               atol=1e-12)
+
+
+@pytest.mark.parametrize("later", ['{"command": "estop"}', '{"command": "stop"}'])
+def test_a_later_command_replaces_a_held_stand(later):
+    clock = Clock(PlannerCore(CFG))
+    clock.send('{"command": "stand"}')
+    try:
+        clock.send(later)
+    except CommandError:
+        pass
+    clock.core.set_measured(STAND, clock.t)
+    assert clock.core.state != MOVING  # nothing starts by itself
 
 
 def test_stand_from_a_measured_pose_is_smooth_and_reaches_standing():
@@ -235,7 +269,7 @@ def test_walk_n_steps_returns_to_standing(gait, steps):
 def test_walk_targets_follow_the_planned_walk():
     """Tick output = IK of gait.plan_walk at the same times; velocities = its joint rates."""
     clock = standing()
-    params = WalkParams.defaults(CFG.gait, turn=0.2, stride=0.05)
+    params = replace(DIAGONAL, turn=0.2, stride=0.05)
     plan = plan_walk(CFG, params, 2)
     clock.send('{"command": "walk", "steps": 2, "turn": 0.2, "stride": 0.05}')
     t0 = clock.t
@@ -585,8 +619,8 @@ def test_status_fields_and_revision():
     s = core.status()
     assert {"state", "gait", "profile", "step", "steps", "paused", "last_refusal",
             "stamp"} <= s.keys()
-    assert (s["state"], s["gait"], s["profile"], s["paused"]) == (IDLE, "diagonal", "smooth",
-                                                                  False)
+    assert (s["state"], s["gait"], s["profile"], s["paused"]) == (IDLE, CFG.gait.gait,
+                                                                  "smooth", False)
     rev = core.revision
     core.tick(0.5)
     assert core.revision == rev  # a tick that changes nothing changes no status
@@ -726,3 +760,29 @@ def test_a_plan_for_a_finished_slot_is_dropped():
     assert job is not None
     clock.run(0.2)  # past the boundary: the tick planned and started the next slot
     assert clock.core.store_ahead(job.run()) is False
+
+
+@pytest.mark.parametrize("twist", [None, (0.08, 0.0, 0.0), (0.0, 0.06, 0.1)])
+def test_the_default_gait_walks_through_the_core_as_planned(twist):
+    # A core with the shipped defaults walks the default gait (planned from the ZMP): its
+    # targets are the IK of the same plan, without a jump, and it ends STANDING.
+    clock = standing(defaults=WalkParams.defaults(CFG.gait))
+    assert clock.core.status()["gait"] == "diagonal_zmp"
+    t0 = clock.t
+    if twist is None:
+        clock.send('{"command": "walk", "steps": 2}')
+        plan = plan_walk(CFG, WalkParams.defaults(CFG.gait), 2)
+        clock.until(STANDING)
+        times = np.array([t for t, _ in clock.targets if t - t0 < plan.duration - 1e-9])
+        got = np.array([tg.positions for t, tg in clock.targets
+                        if t - t0 < plan.duration - 1e-9])
+        np.testing.assert_allclose(got, plan.joints(times - t0)[0].reshape(len(times), 12),
+                                   atol=1e-8)
+    else:
+        for _ in range(150):
+            clock.core.on_twist(*twist, clock.t)
+            clock.tick()
+        clock.until(STANDING)  # the twists stop: the walk stops into standing
+    q = positions(clock)
+    assert np.abs(np.diff(q, axis=0)).max() < 0.05  # no jump
+    np.testing.assert_allclose(q[-1], STAND.reshape(-1), atol=1e-9)

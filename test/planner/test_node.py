@@ -231,7 +231,7 @@ def test_parameter_sets_are_validated_by_the_node(ros):
     assert not result.successful and result.reason
     result = planner.set_parameters([Parameter("gait", value="gallop")])[0]
     assert not result.successful and (
-        "gait must be one of ['diagonal', 'diagonal_sway', 'wave'], got 'gallop'" in result.reason)
+        "gait must be one of ['diagonal', 'diagonal_sway', 'diagonal_zmp', 'wave'], got 'gallop'" in result.reason)
     result = planner.set_parameters([Parameter("config_file", value="other.yaml")])[0]
     assert not result.successful  # read-only
     result = planner.set_parameters_atomically([Parameter("lift", value=0.02),

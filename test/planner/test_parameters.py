@@ -50,8 +50,8 @@ def test_parameter_names_defaults_and_flags():
         "stumble_lift": 0.015, "stumble_retreat": 0.0, "stumble_lift_time": 0.12,
         "stumble_stop_time": 0.04, "attitude_mode": "off", "attitude_max_tilt": 0.15,
         "attitude_max_lift": 0.02, "gait": G.gait,
-        "profile": G.profile, "stride": G.stride, "lift": G.lift, "arc": G.arc,
-        "swing_time": G.swing_time, "stance_profile": G.stance_profile,
+        "profile": G.profile, "stride": G.stride_of(G.gait), "lift": G.lift, "arc": G.arc,
+        "swing_time": G.swing_time_of(G.gait), "stance_profile": G.stance_profile_of(G.gait),
         "margin": G.stability_margin,
         "body_height": CFG.robot.body_height}
     assert BY_NAME["stride"].description == "default stride of a new walk [m]"
@@ -92,7 +92,7 @@ def test_parameters_defaults_valid():
     ({"stride": 0.09}, "stride must be within [0, 0.08] m, got 0.09"),
     ({"lift": 0.03, "arc": 0.02}, "gait defaults refused: arc"),
     ({"arc": 0.0}, "gait defaults refused: arc"),  # the smooth profile needs some arc
-    ({"gait": "trot"}, "gait must be one of ['diagonal', 'diagonal_sway', 'wave'], got 'trot'"),
+    ({"gait": "trot"}, "gait must be one of ['diagonal', 'diagonal_sway', 'diagonal_zmp', 'wave'], got 'trot'"),
     ({"profile": ""}, "profile must be one of ['rest', 'smooth'], got ''"),
     ({"body_height": 0.1}, "body_height must be within [0.05, 0.09] m, got 0.1"),
     ({"fault_hardware_id": " "}, "fault_hardware_id must be a non-empty string"),

@@ -30,8 +30,10 @@ def test_trajectory_header_and_both_ends(capsys: pytest.CaptureFixture[str]) -> 
     assert code == 0
     assert out.splitlines()[0] == ("t,phase,x,y,z,vx,vy,vz,ax,ay,az,q_root,q_shoulder,q_knee")
     data = rows(out)
-    assert len(data) == 121  # 0.6 s swing + 0.6 s stance at 100 Hz, both ends
-    assert float(data[0]["t"]) == 0.0 and float(data[-1]["t"]) == pytest.approx(1.2)
+    g = load_config().gait  # the default gait's swing and the cycle's stance, both ends
+    cycle = g.swing_time_of(g.gait) + g.stance_time
+    assert len(data) == round(cycle * 100) + 1
+    assert float(data[0]["t"]) == 0.0 and float(data[-1]["t"]) == pytest.approx(cycle)
     assert data[0]["phase"] == "lift" and data[-1]["phase"] == "stance"
     assert {r["phase"] for r in data} == {"lift", "arc", "lower", "stance"}
     first = np.array([float(data[0][k]) for k in "xyz"])

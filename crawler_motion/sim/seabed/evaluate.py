@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import math
 import time as clock
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from crawler_motion.model.config import Config
+from crawler_motion.model.medium import MediumConfig
 from crawler_motion.motion.gait import WalkParams, plan_walk
 from crawler_motion.sim.seabed.metrics import (
     PlanPhases,
@@ -23,9 +24,11 @@ from crawler_motion.sim.seabed.metrics import (
     plan_phases,
     stance_runs,
     steady_cycles,
+    zmp_distances,
 )
 from crawler_motion.sim.seabed.model import SeabedModel, SimSettings
 from crawler_motion.sim.seabed.replay import Recording, ReplayOptions, replay
+from crawler_motion.sim.seabed.water import Medium
 
 #: A foot is loaded above this share of its part (1 / n_legs) of the net weight.
 LOAD_THRESHOLD = 0.1
@@ -52,6 +55,8 @@ class CycleMetrics:
     stance_displacement: float  # mean net slide of the contact point per stance [m]
     centre_travel: float  # mean horizontal travel of the foot centre per stance, roll incl. [m]
     stance_contact_loss: float  # share of stance samples
+    zmp_mean: float  # measured ZMP's distance to the support line, two-feet samples [m]
+    zmp_p95: float
     midswing_contact: float  # share of mid-swing samples
     roll_max: float
     pitch_max: float
@@ -111,7 +116,10 @@ class EvalResult:
 def evaluate_walk(cfg: Config, params: WalkParams, steps: int = 4,
                   settings: SimSettings | None = None, world: str | Path | None = None,
                   options: ReplayOptions | None = None) -> EvalResult:
-    """Plan ``steps`` gait cycles with ``params``, replay them on ``world`` and measure them."""
+    """Plan ``steps`` gait cycles with ``params``, replay them on ``world`` and measure them
+    (the planner's medium is the simulated one, `medium_of`)."""
+    settings = SimSettings() if settings is None else settings
+    cfg = replace(cfg, medium=medium_of(cfg, settings))
     plan = plan_walk(cfg, params, steps)
     sm = SeabedModel(cfg.robot, settings, world)
     start = clock.perf_counter()
@@ -125,12 +133,22 @@ def evaluate_walk(cfg: Config, params: WalkParams, steps: int = 4,
     runs = stance_runs(phases.stance)
     contact = _contact_velocity(rec, sm.foot_radius)
     slip = np.hypot(contact[..., 0], contact[..., 1])
+    medium = medium_of(cfg, sm.settings)
+    zmp = zmp_distances(rec, phases.stance, medium.omega2(float(plan.slots[0].params.body_height)),
+                        medium.zmp_shift)
     cycles = []
     for k0, k1 in steady_cycles(plan, rec.time):
-        cycles.append(_cycle(rec, phases, path, rpy, runs, (contact, slip), threshold, k0, k1))
+        cycles.append(_cycle(rec, phases, path, rpy, runs, (contact, slip), threshold, k0, k1,
+                             zmp))
     return EvalResult(world=sm.world.source, medium=sm.settings.water.medium.value,
                       params=asdict(plan.slots[0].params), steps=steps,
                       sim_time=float(plan.duration), wall_time=wall, cycles=cycles)
+
+
+def medium_of(cfg: Config, settings: SimSettings) -> MediumConfig:
+    """The planner's medium for a walk in ``settings``: the config's in water, full weight on
+    land (`MediumConfig.on_land`)."""
+    return cfg.medium.on_land() if settings.water.medium is Medium.LAND else cfg.medium
 
 
 def _contact_velocity(rec: Recording, radius: float) -> np.ndarray:
@@ -149,8 +167,8 @@ def net_slide(velocity: np.ndarray, time: np.ndarray) -> float:
 
 
 def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray, runs: list,
-           contact_slip: tuple[np.ndarray, np.ndarray], threshold: float, k0: int, k1: int
-           ) -> CycleMetrics:
+           contact_slip: tuple[np.ndarray, np.ndarray], threshold: float, k0: int, k1: int,
+           zmp: np.ndarray) -> CycleMetrics:
     """One cycle's figures; ``contact_slip``: the contact points' velocities ``(n, n_legs,
     2)`` [m/s] and their speeds ``(n, n_legs)`` [m/s] over the whole walk."""
     part = slice(k0, k1)
@@ -168,8 +186,11 @@ def _cycle(rec: Recording, phases: PlanPhases, path: np.ndarray, rpy: np.ndarray
     loaded_all = rec.loads > threshold
     per_stance = [float(np.sum((slip[a:b + 1, leg] * dt[a:b + 1])[loaded_all[a:b + 1, leg]]))
                   for leg, a, b in runs if k0 <= a < k1]
+    zmp_part = zmp[part][np.isfinite(zmp[part])]
     return CycleMetrics(
         **body_motion(rec, path, k0, k1, rpy),
+        zmp_mean=float(zmp_part.mean()) if zmp_part.size else math.nan,
+        zmp_p95=float(np.percentile(zmp_part, 95)) if zmp_part.size else math.nan,
         slip_mean=float(slips.mean()) if slips.size else 0.0,
         slip_max=float(slips.max()) if slips.size else 0.0,
         stance_slip_mean=float(np.mean(per_stance)) if per_stance else 0.0,
@@ -193,6 +214,7 @@ TABLE_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
     ("foot mm", "stance_displacement", 1e3, "{:5.1f}"),
     ("ctr mm", "centre_travel", 1e3, "{:5.1f}"),
     ("loss %", "stance_contact_loss", 100.0, "{:5.1f}"),
+    ("zmp mm", "zmp_mean", 1e3, "{:5.1f}"), ("p95", "zmp_p95", 1e3, "{:5.1f}"),
     ("scuff %", "midswing_contact", 100.0, "{:5.1f}"),
     ("roll °", "roll_max", 180 / math.pi, "{:5.1f}"),
     ("pitch °", "pitch_max", 180 / math.pi, "{:5.1f}"),

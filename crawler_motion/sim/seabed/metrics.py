@@ -151,3 +151,35 @@ def stance_runs(stance: np.ndarray) -> list[tuple[int, int, int]]:
         starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
         runs += [(leg, int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
     return runs
+
+
+#: Width of the moving average that smooths the measured body acceleration [s] (contact
+#: impacts ring at the physics step; the pendulum's time constant is ~0.2 s).
+ZMP_SMOOTHING = 0.02
+
+
+def zmp_distances(rec: Recording, stance: np.ndarray, omega2: float, shift: np.ndarray
+                  ) -> np.ndarray:
+    """Distance ``(n,)`` [m] of the measured zero-moment point (`motion.zmp.zmp_of` of the body
+    centre's measured horizontal motion) from the line through the two planned stance feet's
+    measured centres; NaN where the plan has not exactly two feet down."""
+    from crawler_motion.motion.zmp import line_distance, zmp_of
+
+    centre = rec.base[:, :2]
+    dt = float(np.median(np.diff(rec.time))) if len(rec.time) > 1 else 1.0
+    width = max(1, round(ZMP_SMOOTHING / dt))
+    kernel = np.ones(width) / width
+    velocity = np.gradient(centre, rec.time, axis=0)
+    accel = np.gradient(velocity, rec.time, axis=0)
+    accel = np.stack([np.convolve(accel[:, d], kernel, mode="same") for d in range(2)], axis=-1)
+    point = zmp_of(centre, accel, omega2, shift)
+    out = np.full(len(rec.time), np.nan)
+    two = stance.sum(axis=1) == 2
+    if not two.any():
+        return out
+    legs = np.argsort(~stance[two], axis=1, kind="stable")[:, :2]
+    rows = np.flatnonzero(two)
+    first = rec.feet[rows, legs[:, 0], :2]
+    second = rec.feet[rows, legs[:, 1], :2]
+    out[rows] = line_distance(point[rows], first, second)
+    return out
