@@ -228,17 +228,25 @@ class SwingShape:
     degree: int = 6  # 6 = sextic, 4 = the study's quartic (v = 0 junctions only)
 
 
+#: By coefficient count n: the grids (k, j) of powers and the binomials C(k, j) (0 above k)
+#: of `restricted`'s change of variable.
+_POWER_GRID = {n: np.meshgrid(np.arange(n), np.arange(n), indexing="ij") for n in range(1, 9)}
+_BINOMIAL = {n: np.array([[math.comb(k, j) if j <= k else 0 for j in range(n)]
+                          for k in range(n)], dtype=float) for n in range(1, 9)}
+
+
 def restricted(segment: Segment, start: float, duration: float) -> Segment:
     """The part of ``segment`` from ``start`` [s] lasting ``duration`` [s], as a segment of
     its own (same polynomial, re-parametrised: ``p(u0 + (u1 - u0) v)``, binomial expansion)."""
     u0, width = start / segment.duration, duration / segment.duration
     c = segment.coeffs
-    deg = c.shape[-1] - 1
-    out = np.zeros_like(c)
-    for k in range(deg + 1):  # (u0 + width v)^k = sum_j C(k, j) u0^(k-j) width^j v^j
-        for j in range(k + 1):
-            out[..., j] += c[..., k] * math.comb(k, j) * u0 ** (k - j) * width ** j
-    return Segment(out, _check_duration(duration), segment.phase)
+    n = c.shape[-1]
+    # (u0 + width v)^k = sum_j C(k, j) u0^(k-j) width^j v^j
+    k, j = _POWER_GRID[n]
+    with np.errstate(invalid="ignore"):  # 0^0 = 1 below the diagonal only
+        change = np.where(j <= k, _BINOMIAL[n] * float(u0) ** np.maximum(k - j, 0)
+                          * float(width) ** j, 0.0)
+    return Segment(c @ change, _check_duration(duration), segment.phase)
 
 
 def minus_path(segments: Sequence[Segment], path: Segment) -> list[Segment]:
@@ -248,9 +256,10 @@ def minus_path(segments: Sequence[Segment], path: Segment) -> list[Segment]:
     for seg in segments:
         part = restricted(path, t, seg.duration).coeffs
         width = max(part.shape[-1], seg.coeffs.shape[-1])
-        pad = [np.pad(x, [(0, 0)] * (x.ndim - 1) + [(0, width - x.shape[-1])])
-               for x in (seg.coeffs, part)]
-        out.append(Segment(pad[0] - pad[1], seg.duration, seg.phase))
+        diff = np.zeros((*seg.coeffs.shape[:-1], width))
+        diff[..., :seg.coeffs.shape[-1]] += seg.coeffs
+        diff[..., :part.shape[-1]] -= part
+        out.append(Segment(diff, seg.duration, seg.phase))
         t += seg.duration
     return out
 

@@ -7,7 +7,6 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from crawler_motion.mapping.odometry import OdometryVerdict
 from crawler_motion.mapping.mapper import (
     MapperSettings,
     Pose,
@@ -16,6 +15,7 @@ from crawler_motion.mapping.mapper import (
     TerrainMapper,
 )
 from crawler_motion.mapping.obstacles import local_ground, step_threshold
+from crawler_motion.mapping.odometry import OdometryVerdict
 from crawler_motion.mapping.points import Mount
 from crawler_motion.model.config import load_config
 

@@ -174,7 +174,7 @@ def rate_of(msgs: list[JointState]) -> float:
 def test_idle_then_stand_publishes_joint_commands_at_the_rate(ros):
     probe = ros.probe
     status = probe.wait_state("IDLE", 0)
-    assert status["paused"] is False and status["gait"] == "diagonal" and "time" in status
+    assert status["paused"] is False and status["gait"] == "diagonal_zmp" and "time" in status
     assert isinstance(status["missed_ticks"], int)  # > 0 only if the process was starved
     # the probe is the one publisher of joint_states; a second one is counted and warned of
     assert probe.wait_status(lambda s: s["joint_states"]["publishers"] == 1, since=0)
@@ -231,7 +231,8 @@ def test_parameter_sets_are_validated_by_the_node(ros):
     assert not result.successful and result.reason
     result = planner.set_parameters([Parameter("gait", value="gallop")])[0]
     assert not result.successful and (
-        "gait must be one of ['diagonal', 'diagonal_sway', 'diagonal_zmp', 'wave'], got 'gallop'" in result.reason)
+        "gait must be one of ['diagonal', 'diagonal_sway', 'diagonal_zmp', 'wave'], "
+        "got 'gallop'" in result.reason)
     result = planner.set_parameters([Parameter("config_file", value="other.yaml")])[0]
     assert not result.successful  # read-only
     result = planner.set_parameters_atomically([Parameter("lift", value=0.02),
@@ -252,7 +253,7 @@ def test_walk_steps_and_status(ros):
     mark = probe.mark()
     probe.send('{"command": "walk", "steps": 1, "swing_time": 0.3}')
     status = probe.wait_state("WALKING", mark)
-    assert (status["steps"], status["source"], status["gait"]) == (1, "command", "diagonal")
+    assert (status["steps"], status["source"], status["gait"]) == (1, "command", "diagonal_zmp")
     status = probe.wait_state("STANDING", mark)
     assert (status["step"], status["steps"], status["refusals"]) == (1, 1, 0)
 

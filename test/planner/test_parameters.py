@@ -57,7 +57,7 @@ def test_parameter_names_defaults_and_flags():
     assert BY_NAME["stride"].description == "default stride of a new walk [m]"
     assert BY_NAME["body_height"].description == (
         "default standing body height (stand without body_height) [m]")
-    assert BY_NAME["gait"].choices == ("diagonal", "diagonal_sway", "wave")
+    assert BY_NAME["gait"].choices == ("diagonal", "diagonal_sway", "diagonal_zmp", "wave")
     assert BY_NAME["profile"].choices == ("rest", "smooth")
     assert BY_NAME["attitude_mode"].choices == ("stance_plane", "imu", "off")
 
@@ -92,7 +92,8 @@ def test_parameters_defaults_valid():
     ({"stride": 0.09}, "stride must be within [0, 0.08] m, got 0.09"),
     ({"lift": 0.03, "arc": 0.02}, "gait defaults refused: arc"),
     ({"arc": 0.0}, "gait defaults refused: arc"),  # the smooth profile needs some arc
-    ({"gait": "trot"}, "gait must be one of ['diagonal', 'diagonal_sway', 'diagonal_zmp', 'wave'], got 'trot'"),
+    ({"gait": "trot"},
+     "gait must be one of ['diagonal', 'diagonal_sway', 'diagonal_zmp', 'wave'], got 'trot'"),
     ({"profile": ""}, "profile must be one of ['rest', 'smooth'], got ''"),
     ({"body_height": 0.1}, "body_height must be within [0.05, 0.09] m, got 0.1"),
     ({"fault_hardware_id": " "}, "fault_hardware_id must be a non-empty string"),

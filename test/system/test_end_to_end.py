@@ -201,7 +201,8 @@ def test_physical_demo_walks_the_body_and_writes_its_picture(tmp_path: Path) -> 
     advance = [line for line in proc.stdout.splitlines() if "body advance" in line]
     assert len(advance) == 1, proc.stdout
     moved, planned = (float(v) for v in advance[0].split()[2:6:3])
-    assert planned == pytest.approx(180.0, abs=0.1), advance  # 1 diagonal step, no slip
+    gait = load_config().gait  # 1 step of the default gait: two half steps + two strides
+    assert planned == pytest.approx(3e3 * gait.stride_of(gait.gait), abs=0.1), advance
     assert 0.5 * planned < moved < 1.5 * planned, advance
     reason = render.gl_unavailable()
     if reason is not None:

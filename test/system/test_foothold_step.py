@@ -5,7 +5,6 @@ simulated time), with the terrain-adaptive touch-down and without it."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import pytest
 
@@ -23,7 +22,7 @@ STANCE_TIME = 1.2
 
 def _walk(enabled: bool) -> WalkRecord:
     cfg = load_config()
-    params = replace(WalkParams.defaults(cfg.gait), gait="diagonal", stance_time=STANCE_TIME)
+    params = WalkParams.defaults(cfg.gait, gait="diagonal", stance_time=STANCE_TIME)
     loop = FootholdLoop(cfg, "step", FootholdSettings(enabled=enabled))
     return loop.walk(params, STEPS)
 

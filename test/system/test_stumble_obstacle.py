@@ -50,7 +50,7 @@ def test_a_foot_that_hits_a_block_is_lifted_retried_and_then_holds_the_walk(
         return track
 
     footholds._stumbles = watch  # type: ignore[method-assign]
-    params = replace(WalkParams.defaults(cfg.gait), gait="wave")
+    params = WalkParams.defaults(cfg.gait, gait="wave")
     rec = loop.walk(params, 2, limit=12.0)
     events = " ".join(rec.events)
     assert rec.state == "HOLDING", events
@@ -77,7 +77,7 @@ def test_a_fast_diagonal_walk_on_flat_ground_has_no_hit(tmp_path: Path) -> None:
     cfg = load_config()
     loop = FootholdLoop(cfg, str(world), FootholdSettings(enabled=True),
                         stumble=StumbleSettings())
-    params = replace(WalkParams.defaults(cfg.gait), gait="diagonal", stride=0.08,
+    params = replace(WalkParams.defaults(cfg.gait, gait="diagonal"), stride=0.08,
                      swing_time=0.25)
     rec = loop.walk(params, 6, limit=30.0)
     assert rec.state == "STANDING" and not [e for e in rec.events if "hit" in e], rec.events

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from crawler_motion.model.config import load_config
 from crawler_motion.tools.demo import BodyTrack, advance_line, parse_args, planned_advance
 
 
@@ -56,7 +57,8 @@ def test_no_odom_is_an_error() -> None:
 def test_planned_advance_and_its_line() -> None:
     pytest.importorskip("mujoco")
     planned = planned_advance(parse_args(["--steps", "3"]))
-    assert planned == pytest.approx([0.42, 0.0], abs=1e-5)  # half steps + 3 x 0.12 m
+    gait = load_config().gait  # two half steps + 3 cycles of two strides: 7 strides
+    assert planned == pytest.approx([7 * gait.stride_of(gait.gait), 0.0], abs=1e-9)
     line = advance_line(np.array([0.4109, -0.0029]), planned)
     assert line == ("  body advance          410.9 mm of 420.0 mm planned without slip "
                     "(0.98), -2.9 mm left (odom)")

@@ -58,7 +58,7 @@ def plan_phases(plan: WalkPlan, time: np.ndarray) -> PlanPhases:
     elapsed = time - plan.starts[idx]
     phase = np.divide(elapsed, swing_time, out=np.full_like(elapsed, np.inf),
                       where=swing_time > 0)  # a slot without a swing: every foot down
-    swinging = member[idx] & (phase < 1.0)[:, None]
+    swinging = member[idx] & ((phase > 0.0) & (phase < 1.0))[:, None]  # on the ground at A, E
     return PlanPhases(stance=~swinging,
                       swing_phase=np.where(swinging, phase[:, None], np.nan))
 
@@ -87,7 +87,9 @@ def no_slip_path(plan: WalkPlan, time: np.ndarray, stance: np.ndarray) -> np.nda
 def planned_displacement(plan: WalkPlan, period: float = 0.002) -> np.ndarray:
     """The whole walk's no-slip body displacement (x [m], y [m], yaw [rad]) in the body frame
     at its start, from the plan sampled every ``period`` [s] (2 ms: within 1e-6 m)."""
-    time = np.append(np.arange(0.0, plan.duration, period), plan.duration)
+    swing_ends = plan.starts + np.array([slot.swing_time for slot in plan.slots])
+    time = np.union1d(np.arange(0.0, plan.duration, period),  # every lift-off and touch-down
+                      np.concatenate((plan.starts, swing_ends, [plan.duration])))
     return no_slip_path(plan, time, plan_phases(plan, time).stance)[-1]
 
 
