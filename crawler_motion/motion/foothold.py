@@ -47,8 +47,9 @@ EARLY_CONFIRM = 2
 
 @dataclass(frozen=True)
 class FootholdSettings:
-    """``enabled`` (off by default: a motor manager without a plant reports efforts that
-    carry no ground load); early-contact ``tolerance`` above the planned ground [m],
+    """``enabled`` (on by default: the planner walks the blind plan while the efforts carry
+    no ground load, `planner.contacts.ContactMonitor.ground_load`); early-contact
+    ``tolerance`` above the planned ground [m],
     ``stop_time`` of the smooth stop [s], ``search_depth`` below the planned ground [m], the
     search's peak ``search_speed`` [m/s] and the normal force [N] an early contact needs
     (`EARLY_CONFIRM` estimates in a row; the contact threshold alone is met by a swinging

@@ -115,3 +115,27 @@ def validate_params(params: WalkParams, cfg: Config) -> WalkParams:
     if not (isinstance(height, (int, float)) and math.isfinite(height) and lo <= height <= hi):
         raise GaitError(f"body_height = {height} m is outside [{lo}, {hi}] m")
     return replace(params, stance_time=float(stance), body_height=float(height))
+
+
+def gait_defaults(cfg: Config, gait: str) -> dict[str, object]:
+    """The walk options whose default is the gait table's own: swing time, stride and stance
+    profile (`GaitConfig.swing_time_of`, `stride_of`, `stance_profile_of`)."""
+    g = cfg.gait
+    return {"swing_time": g.swing_time_of(gait), "stride": g.stride_of(gait),
+            "stance_profile": g.stance_profile_of(gait)}
+
+
+def follow_gait(values: dict[str, object], old: str, new: str, cfg: Config,
+                chosen: set[str] | frozenset[str] = frozenset()) -> dict[str, object]:
+    """``values`` (walk options by name) for a change of gait from ``old`` to ``new``: each
+    option of `gait_defaults` that has ``old``'s default and is not in ``chosen`` takes
+    ``new``'s (a value chosen otherwise is kept). The one rule of a walk command that changes
+    the gait and of the planner's gait parameter."""
+    if new == old or new not in cfg.gait.gaits or old not in cfg.gait.gaits:
+        return dict(values)
+    before, after = gait_defaults(cfg, old), gait_defaults(cfg, new)
+    out = dict(values)
+    for name, value in before.items():
+        if name not in chosen and out.get(name) == value:
+            out[name] = after[name]
+    return out

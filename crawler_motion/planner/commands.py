@@ -31,6 +31,7 @@ from crawler_motion.motion.walk_options import (
     options_of,
     stance_time_error,
 )
+from crawler_motion.motion.walk_params import follow_gait, gait_defaults
 
 #: Longest accepted ``gait_command`` text, in UTF-8 bytes.
 MAX_COMMAND_BYTES = 4096
@@ -80,16 +81,10 @@ class Command:
         stride likewise (`GaitConfig.stance_profile_of`, `GaitConfig.stride_of`).
         """
         fields = dict(self.overrides)
-        gait = fields.get("gait", base.gait)
-        if ("swing_time" not in fields and gait != base.gait and gait in cfg.gait.gaits
-                and base.swing_time == cfg.gait.swing_time_of(base.gait)):
-            fields["swing_time"] = cfg.gait.swing_time_of(gait)
-        if ("stance_profile" not in fields and gait != base.gait and gait in cfg.gait.gaits
-                and base.stance_profile == cfg.gait.stance_profile_of(base.gait)):
-            fields["stance_profile"] = cfg.gait.stance_profile_of(gait)
-        if ("stride" not in fields and gait != base.gait and gait in cfg.gait.gaits
-                and base.stride == cfg.gait.stride_of(base.gait)):
-            fields["stride"] = cfg.gait.stride_of(gait)
+        gait = str(fields.get("gait", base.gait))
+        kept = {name: getattr(base, name) for name in gait_defaults(cfg, gait)}
+        own = follow_gait(kept, base.gait, gait, cfg, set(fields))
+        fields = {**{k: v for k, v in own.items() if v != kept[k]}, **fields}
         if "stance_time" not in fields and ({"swing_time", "gait"} & fields.keys()):
             fields["stance_time"] = None
         try:

@@ -15,6 +15,13 @@ why contacts are unknown ("" when none is). The same ``feet`` and ``effort`` are
 ``contacts`` of ``planner_status``. Joint states without efforts (an older manager, a driver
 that cannot decode them) make every contact unknown and, after `MISSING_WARN_AFTER`, put the
 planner's ``foot contacts`` status on ``/diagnostics`` at WARN.
+
+``ground_load`` says whether the efforts carry the robot's weight: true once the feet's
+estimated normal forces have added up to more than `GROUND_LOAD` within the last
+`GROUND_LOAD_WINDOW`. A bus whose efforts carry no ground load (the joint-only
+``motor_manager_sim``, a robot lifted off the ground) reads false with a ``reason``, and the
+terrain-adaptive touch-down, the stumble retry and the attitude walk the blind plan instead of
+seeing false touch-downs and hits.
 """
 
 from __future__ import annotations
@@ -44,6 +51,14 @@ PUBLISH_PERIOD = 0.1
 MISSING_WARN_AFTER = 0.25
 #: The diagnostic status: what it is about (its name is ``<node>: foot contacts``), hardware_id.
 STATUS_WHAT = "foot contacts"
+#: Sum of the feet's normal forces [N] above which the efforts carry a ground load (a standing
+#: crawler in water carries ~9 N; a joint-only simulated manager reports ~0).
+GROUND_LOAD = 2.0
+#: The load must have been seen this recently [s] (a walk always has two feet down).
+GROUND_LOAD_WINDOW = 1.0
+#: The contacts' reason while the efforts carry no ground load.
+NO_GROUND_LOAD = ("the joint efforts carry no ground load (a joint-only manager, or the robot "
+                  "off the ground): the rough-ground features walk the blind plan")
 HARDWARE_ID = "crawler_planner"
 
 
@@ -88,6 +103,8 @@ class ContactMonitor:
         self._missing_since: float | None = None
         self._published_at = -math.inf
         self._published_states: tuple[FootContact, ...] = ()
+        self._loaded_at = -math.inf  # when the feet last carried `GROUND_LOAD` [s]
+        self._now = -math.inf
         self._lock = threading.Lock()
 
     def __getstate__(self) -> dict[str, Any]:
@@ -122,6 +139,9 @@ class ContactMonitor:
         else:
             self._missing_since = None
         estimate = self.estimator.update(stamp, angles, tau)
+        self._now = now
+        if float(np.nansum(estimate.normal_forces)) > GROUND_LOAD:
+            self._loaded_at = now  # (`take` keeps the same rule)
         if why:
             estimate = ContactEstimate(estimate.stamp, estimate.states, estimate.normal_forces,
                                        estimate.forces, why)
@@ -130,8 +150,17 @@ class ContactMonitor:
                 now - self._published_at < PUBLISH_PERIOD):
             return None
         self._published_states, self._published_at = estimate.states, now
-        return json.dumps({"stamp": estimate.stamp, **self._report(),
-                           "reason": estimate.reason})
+        reason = estimate.reason or ("" if self._ground_load() else NO_GROUND_LOAD)
+        return json.dumps({"stamp": estimate.stamp, **self._report(), "reason": reason})
+
+    def take(self, estimate: ContactEstimate, now: float) -> None:
+        """Use ``estimate``, made elsewhere (a replay, a test), as the last one at steady time
+        ``now`` [s]: the ground load follows it as it follows `update`'s."""
+        with self._lock:
+            self.last = estimate
+            self._now = now
+            if float(np.nansum(estimate.normal_forces)) > GROUND_LOAD:
+                self._loaded_at = now
 
     def report(self) -> dict[str, Any]:
         """``effort`` and ``feet`` (contact, normal force [N] or None) of the last estimate."""
@@ -147,7 +176,16 @@ class ContactMonitor:
             force = float(self.last.normal_forces[i])
             feet[leg] = {"contact": self.last.states[i].value,
                          "force": round(force, 3) if math.isfinite(force) else None}
-        return {"effort": self.has_effort, "feet": feet}
+        return {"effort": self.has_effort, "ground_load": self._ground_load(), "feet": feet}
+
+    @property
+    def ground_load(self) -> bool:
+        """True when the efforts carried the robot's weight within `GROUND_LOAD_WINDOW`."""
+        with self._lock:
+            return self._ground_load()
+
+    def _ground_load(self) -> bool:
+        return self._now - self._loaded_at <= GROUND_LOAD_WINDOW
 
     def diagnostic(self, now: float) -> tuple[bool, str]:
         """(warn, message) of the ``foot contacts`` status at steady time ``now`` [s]."""

@@ -63,6 +63,8 @@ class Footholds:
         self.replanned: Track | None = None
         self._slot: Slot | None = None
         self._legs: list[Piecewise] = []  # the current slot's leg trajectories
+        #: Per leg, its swing's horizontal direction in the current slot (None: not swinging).
+        self._swing_dir: list[np.ndarray | None] = [None] * robot.n_legs
         self._slot_time = 0.0  # slot time [s] of the last `targets`
         self._tilt = [0.0, 0.0, 0]  # IMU: sums of measured minus commanded roll, pitch; count
         self._end: np.ndarray | None = None  # the joint pose [rad] the last walk ended in
@@ -114,8 +116,10 @@ class Footholds:
         self._slot, self._legs, self.replanned = slot, list(slot.legs), None
         self.hits.clear()
         held = self.adapter.held()  # the footholds, before the swinging legs leave theirs
+        self._swing_dir = [None] * self.robot.n_legs
         if slot.swing_time > 0.0:
             for i in slot.group:
+                self._swing_dir[i] = swing_direction(slot.legs[i], slot.swing_time)
                 self.adapter.begin_swing(i, slot.legs[i], self._base, slot.swing_time)
                 self.hits.begin(i, lowering_start(slot.legs[i], slot.swing_time),
                                 float(slot.legs[i].evaluate(0.0)[0][0, 2]))
@@ -138,13 +142,13 @@ class Footholds:
 
     def _estimate(self) -> tuple[tuple[FootContact, ...] | None, list[float] | None,
                                  list[float] | None, float]:
-        """Contact states, normal forces and horizontal forces [N] (base_link), or Nones
-        (unknown), and the estimate's stamp [s]."""
+        """Contact states, normal forces and the horizontal forces against each swing [N]
+        (`against_swing`), or Nones (unknown), and the estimate's stamp [s]."""
         last = None if self.monitor is None else self.monitor.last
-        if last is None or not self.settings.enabled:
-            return None, None, None, math.nan
+        if last is None or not self.settings.enabled or not self.monitor.ground_load:
+            return None, None, None, math.nan  # unknown: the blind plan
         return (last.states, last.normal_forces.tolist(),
-                [math.hypot(fx, fy) for fx, fy, _ in last.forces.tolist()], last.stamp)
+                against_swing(last.forces, last.normal_forces, self._swing_dir), last.stamp)
 
     def targets(self, track: Track, kin: FastKinematics, now: float, t0: float
                 ) -> tuple[list[float], list[float]]:
@@ -245,3 +249,29 @@ class Footholds:
         apply_pose(pos, [0.0] * len(pos), self.pose.target, _NEUTRAL)
         self._end = inverse_kinematics(self.robot, np.reshape(pos, (-1, 3)))
         return self._end.copy()
+
+
+def swing_direction(leg: Piecewise, swing_time: float) -> np.ndarray | None:
+    """Unit horizontal direction ``(2,)`` of a swing, lift-off to touch-down (base_link); None
+    for a swing that does not move horizontally."""
+    start, end = leg.evaluate(0.0)[0][0, :2], leg.evaluate(swing_time)[0][0, :2]
+    length = float(np.linalg.norm(end - start))
+    return None if length < 1e-6 else (end - start) / length
+
+
+def against_swing(forces: np.ndarray, normal: np.ndarray,
+                  directions: list[np.ndarray | None]) -> list[float]:
+    """Per leg, the ground's horizontal force against its swing [N]: the component of the force
+    on the foot ``forces`` ``(n, 3)`` [N] opposite the swing's direction (its whole horizontal
+    force for a leg without one), 0 where the normal force pulls (``normal`` < 0: the ground
+    cannot pull, so that reading is the leg's own dynamics, not a contact)."""
+    out = []
+    for i, (fx, fy, _) in enumerate(forces.tolist()):
+        d = directions[i] if i < len(directions) else None
+        if not normal[i] >= 0.0:
+            out.append(0.0)
+        elif d is None:
+            out.append(math.hypot(fx, fy))
+        else:
+            out.append(max(0.0, -(fx * float(d[0]) + fy * float(d[1]))))
+    return out

@@ -19,6 +19,7 @@ from crawler_motion.motion.foothold import FootholdSettings
 from crawler_motion.motion.gait import WalkParams, validate_params
 from crawler_motion.motion.stumble import StumbleSettings
 from crawler_motion.motion.walk_options import WALK_OPTIONS, OptionType, WalkOption
+from crawler_motion.motion.walk_params import follow_gait
 from crawler_motion.runtime.parameters import ParamSpec, validate_parameters
 
 #: Name of the read-only parameter naming the robot.yaml (declared before the others).
@@ -167,6 +168,9 @@ def planner_settings(specs: Sequence[ParamSpec], values: Mapping[str, Any], cfg:
         raise CommandError("; ".join(reasons))
     fields = {option.name: float(values[option.name]) if option.type is OptionType.NUMBER
               else values[option.name] for option in WALK_OPTIONS if option.parameter}
+    # a gait parameter other than the config's: its table's own swing time, stride and stance
+    # profile where those parameters keep the default gait's (the walk command's rule)
+    fields = follow_gait(fields, cfg.gait.gait, str(fields["gait"]), cfg)
     try:
         params = validate_params(WalkParams(**fields), cfg)
         cfg.robot.standing_feet(params.body_height)

@@ -180,6 +180,8 @@ _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
      "foot-cycle smoothness against other controllers"),
     ("tune-smooth", "crawler_motion.tools.tune_smooth",
      "optimise the smooth profile (needs the [tune] extra)"),
+    ("zmp-plot", "crawler_motion.tools.zmp_plot",
+     "two steady cycles from above: support lines, planned and measured ZMP, body path"),
     ("rough", "crawler_motion.tools.rough",
      "a walk over a seabed world in the closed loop, blind or with the rough-ground features"),
     ("param-docs", "crawler_motion.tools.param_docs",

@@ -32,7 +32,7 @@ from crawler_motion.testing.stack import (
     StackSpec,
     random_domain,
 )
-from crawler_motion.tools.args import add_gait_option
+from crawler_motion.tools.args import add_gait_option, add_walk_options
 
 PROG = "crawler-motion demo"
 #: Driver watchdog of the demo [s] (see `STACK_COMMAND_TIMEOUT`).
@@ -46,6 +46,11 @@ PICTURES = "demo_walk"
 #: File prefix of the run's recording (``.mcap``), CAN log (``.log``) and report directory.
 RECORDING = "demo_run"
 RECORD_FPS = 10.0
+#: The walk options the demo passes on to its walk command (None: not sent).
+DIRECTION_OPTIONS = ("heading", "turn")
+#: Time after the walk command before the body's attitude counts as steady [s] (the start's
+#: half steps).
+STEADY_AFTER = 1.5
 #: Time the simulator gets to render its pictures after the run [s].
 PICTURE_TIMEOUT = 90.0
 
@@ -55,6 +60,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=positive_int, default=3, help="gait cycles (default 3)")
     add_gait_option(parser)
+    add_walk_options(parser, DIRECTION_OPTIONS, " (default: the walk's)")
     parser.add_argument("--rate", type=float, default=100.0, help="planner rate [Hz]")
     parser.add_argument("--interface", default="udp_multicast")
     parser.add_argument("--channel", default=None, help="bus channel (default per interface)")
@@ -99,17 +105,32 @@ class Tracker:
 
 
 class BodyTrack:
-    """The body's planar pose (x [m], y [m], yaw [rad]) from ``odom``: latest and marked."""
+    """The body's planar pose (x [m], y [m], yaw [rad]) from ``odom``: latest and marked; and
+    its roll and pitch [rad] while `steady` says the walk is in its steady cycles."""
 
-    def __init__(self) -> None:
+    def __init__(self, steady: Callable[[], bool] = lambda: False) -> None:
         self.pose: np.ndarray | None = None
         self.start: np.ndarray | None = None
+        self.steady = steady
+        self.attitude: list[tuple[float, float]] = []
 
     def on_odom(self, msg: Any) -> None:
         """odom callback."""
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         yaw = np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
         self.pose = np.array([p.x, p.y, yaw])
+        if self.steady():
+            roll = np.arctan2(2 * (q.w * q.x + q.y * q.z), 1 - 2 * (q.x * q.x + q.y * q.y))
+            pitch = np.arcsin(np.clip(2 * (q.w * q.y - q.z * q.x), -1.0, 1.0))
+            self.attitude.append((float(roll), float(pitch)))
+
+    def attitude_line(self) -> str:
+        """The summary line of the body's roll and pitch peak to peak in the steady cycles."""
+        if len(self.attitude) < 2:
+            return "  body attitude         no steady cycle measured (walk more steps)"
+        roll, pitch = np.degrees(np.ptp(np.array(self.attitude), axis=0))
+        return (f"  body attitude         roll {roll:.1f}°, pitch {pitch:.1f}° peak to peak over "
+                f"the steady cycles ({len(self.attitude)} odom samples)")
 
     def mark(self) -> None:
         """Take the latest pose as the start of the walk."""
@@ -132,15 +153,23 @@ def planned_advance(args: argparse.Namespace) -> np.ndarray:
     from crawler_motion.sim.seabed.metrics import planned_displacement
 
     cfg = load_config()
-    plan = plan_walk(cfg, WalkParams.defaults(cfg.gait, gait=args.gait), args.steps)
+    chosen = {name: getattr(args, name) for name in DIRECTION_OPTIONS
+              if getattr(args, name, None) is not None}
+    plan = plan_walk(cfg, WalkParams.defaults(cfg.gait, gait=args.gait, **chosen), args.steps)
     return planned_displacement(plan)[:2]
 
 
 def advance_line(moved: np.ndarray, planned: np.ndarray) -> str:
-    """The summary line of the body's advance ``moved`` against ``planned`` (forward, left [m])."""
-    ratio = moved[0] / planned[0] if abs(planned[0]) > 1e-6 else float("nan")
-    return (f"  body advance          {moved[0] * 1e3:.1f} mm of {planned[0] * 1e3:.1f} mm "
-            f"planned without slip ({ratio:.2f}), {moved[1] * 1e3:+.1f} mm left (odom)")
+    """The summary line of the body's advance ``moved`` against ``planned`` (forward, left
+    [m]): along the planned direction, and to its left."""
+    length = float(np.hypot(*planned))
+    if length < 1e-6:
+        return (f"  body advance          {moved[0] * 1e3:.1f} mm of 0.0 mm planned without "
+                f"slip (nan), {moved[1] * 1e3:+.1f} mm left (odom)")
+    unit = planned / length
+    along, left = float(moved @ unit), float(unit[0] * moved[1] - unit[1] * moved[0])
+    return (f"  body advance          {along * 1e3:.1f} mm of {length * 1e3:.1f} mm "
+            f"planned without slip ({along / length:.2f}), {left * 1e3:+.1f} mm left (odom)")
 
 
 def print_summary(status: dict[str, Any], counts: dict[str, int], errors: list[float],
@@ -184,11 +213,19 @@ class Demo:
                               speed_limit=float(self.cfg.robot.velocity.max()),
                               planner={"gait": args.gait}, names={n: n for n in EXECUTABLES},
                               seabed=seabed)
-        self.body = BodyTrack()
+        self.walk_sent: float | None = None
+        self.body = BodyTrack(self._steady)
         self.procs = StackProcesses(Path(tempfile.mkdtemp(prefix="crawler-demo-")))
         self.tap: Any = None
         self.console: Any = None
         self.t_start = time.monotonic()
+
+    def _steady(self) -> bool:
+        """True in the walk's steady cycles: `STEADY_AFTER` after the walk command, while
+        the planner walks (not yet stopping)."""
+        status = self.console.status if self.console is not None else None
+        return (self.walk_sent is not None and time.monotonic() - self.walk_sent > STEADY_AFTER
+                and (status or {}).get("state") == "WALKING")
 
     def say(self, line: str) -> None:
         """A progress line with the time since the start."""
@@ -236,11 +273,14 @@ class Demo:
     def walk(self) -> None:
         """Stand, walk ``--steps`` cycles, settle."""
         args = self.args
-        for command in ({"command": "stand"},
-                        {"command": "walk", "steps": args.steps, "gait": args.gait}):
+        walk = {"command": "walk", "steps": args.steps, "gait": args.gait,
+                **{name: getattr(args, name) for name in DIRECTION_OPTIONS
+                   if getattr(args, name) is not None}}
+        for command in ({"command": "stand"}, walk):
             if command["command"] == "walk":
                 self.console.spin_for(0.2)
                 self.body.mark()
+                self.walk_sent = time.monotonic()
             self.say(f"operator: {command}")
             ok, message = self.console.run_when_ready(command, args.timeout)
             if not ok:
@@ -258,8 +298,8 @@ class Demo:
         assert tracker.measured is not None
         q_end = tracker.measured.reshape(robot.n_legs, 3)
         feet_err = float(np.abs(forward_kinematics(robot, q_end) - robot.standing_feet()).max())
-        extra = [advance_line(self.body.moved(), planned_advance(self.args))] \
-            if self.physical else []
+        extra = [advance_line(self.body.moved(), planned_advance(self.args)),
+                 self.body.attitude_line()] if self.physical else []
         print_summary(self.console.status or {}, counts, tracker.errors, feet_err, elapsed,
                       extra)
 

@@ -14,6 +14,7 @@ from crawler_motion.model.config import load_config
 from crawler_motion.model.kinematics import foot_jacobians, inverse_kinematics
 from crawler_motion.motion.contact_estimation import ContactSettings
 from crawler_motion.planner.contacts import (
+    GROUND_LOAD_WINDOW,
     MISSING_WARN_AFTER,
     PUBLISH_PERIOD,
     ContactMonitor,
@@ -64,7 +65,7 @@ def test_the_json_says_contact_and_force_per_foot():
     assert set(last["feet"]) == {"lf", "lb", "rb", "rf"}
     for foot in last["feet"].values():
         assert foot["contact"] == "yes" and foot["force"] == pytest.approx(2.0, abs=1e-3)
-    assert monitor.report() == {"effort": True, "feet": last["feet"]}
+    assert monitor.report() == {"effort": True, "ground_load": True, "feet": last["feet"]}
 
 
 def test_it_is_published_on_change_and_at_least_every_period():
@@ -125,3 +126,31 @@ def test_contact_parameters(changes, ok):
     assert contacts.hysteresis == values["contact_hysteresis"]
     assert contacts.drive_inertia == values["contact_drive_inertia"]
     assert contacts.period == values["contact_period"]
+
+
+def test_efforts_without_a_ground_load_are_said_and_leave_the_blind_plan():
+    # a joint-only manager: efforts that hold no weight (every foot ~0 N)
+    monitor = ContactMonitor(CFG.robot)
+    texts = [t for t in run(monitor, [0.0] * 12, 20) if t is not None]
+    data = json.loads(texts[-1])
+    assert data["effort"] is True and data["ground_load"] is False
+    assert "no ground load" in data["reason"] and monitor.ground_load is False
+    # the robot put down: loaded at once; lifted again: unloaded after GROUND_LOAD_WINDOW
+    run(monitor, list(holding(2.0)), 5, t0=1.0)
+    assert monitor.ground_load is True
+    run(monitor, [0.0] * 12, round(GROUND_LOAD_WINDOW / 0.01) - 5, t0=1.05)
+    assert monitor.ground_load is True
+    run(monitor, [0.0] * 12, 10, t0=1.05 + GROUND_LOAD_WINDOW - 0.05)
+    assert monitor.ground_load is False
+
+
+def test_the_walk_walks_blind_without_a_ground_load():
+    from crawler_motion.motion.foothold import FootholdSettings
+    from crawler_motion.planner.footholds import Footholds
+
+    footholds = Footholds(CFG.robot, FootholdSettings(enabled=True))
+    footholds.monitor = ContactMonitor(CFG.robot)
+    run(footholds.monitor, [0.0] * 12, 20)
+    assert footholds._estimate()[0] is None  # unknown: the blind plan
+    run(footholds.monitor, list(holding(2.0)), 5, t0=0.2)
+    assert footholds._estimate()[0] is not None

@@ -49,7 +49,7 @@ def _walk(core: PlannerCore, t: float, state: FootContact | None, limit: float =
     end = t + limit
     while t < end and core.state not in (STANDING, HOLDING):
         if state is not None:
-            core.contacts.last = _estimate(t, state)
+            core.contacts.take(_estimate(t, state), t)
         target = core.tick(t)
         assert target is not None
         feet.append(forward_kinematics(ROBOT, target.positions.reshape(-1, 3)))
@@ -85,7 +85,8 @@ def test_a_foot_that_finds_no_ground_holds_the_walk_with_the_leg_and_the_depth()
 
 def test_disabled_adaptation_ignores_the_contacts() -> None:
     core, t = _standing()
-    assert not core.walk.foothold.settings.enabled  # the default
+    assert core.walk.foothold.settings.enabled  # the default: on
+    core.walk.foothold.configure(FootholdSettings(enabled=False))
     feet, _ = _walk(core, t, FootContact.NO)
     assert core.state == STANDING
     assert set(core.walk.foothold.adapter.modes()) == {Mode.HELD}
@@ -107,7 +108,7 @@ def test_the_offsets_run_on_the_walk_clock_through_a_freeze() -> None:
         out = []
         for k in range(60):
             t = k * DT
-            footholds.monitor.last = _estimate(t, FootContact.YES)
+            footholds.monitor.take(_estimate(t, FootContact.YES), t)
             t0 = pause if t >= 0.5 else 0.0  # frozen for ``pause`` s at 0.5 s of the slot
             out.append(footholds.targets(track, kin, t + t0, t0)[0])
         runs.append(np.array(out))
@@ -138,8 +139,8 @@ def _hit_walk(core: PlannerCore, t: float, hit_from: float, hit_until: float,
                 states[i] = FootContact.NO
                 if slot.group == first and hit_from <= s < hit_until:
                     states[i] = FootContact.YES
-                    force[i] = (20.0, 0.0, 0.0)  # a face ahead of the foot
-        core.contacts.last = ContactEstimate(t, tuple(states), force[:, 2].copy(), force)
+                    force[i] = (-20.0, 0.0, 0.0)  # a face ahead of the foot pushes it back
+        core.contacts.take(ContactEstimate(t, tuple(states), force[:, 2].copy(), force), t)
         target = core.tick(t)
         assert target is not None
         feet.append(forward_kinematics(ROBOT, target.positions.reshape(-1, 3)))

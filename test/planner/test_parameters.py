@@ -44,7 +44,7 @@ def test_parameter_names_defaults_and_flags():
         "config_file": "robot.yaml", "calibration_file": "", "rate": 100.0, "cmd_vel_timeout": 0.5,
         "fault_hardware_id": "motor_manager", "tick_priority": 0, "contact_threshold": 0.75,
         "contact_hysteresis": 0.5, "contact_drive_inertia": 0.005, "contact_period": 0.01,
-        "foothold_adapt": False, "foothold_tolerance": 0.006, "foothold_stop_time": 0.04,
+        "foothold_adapt": True, "foothold_tolerance": 0.006, "foothold_stop_time": 0.04,
         "foothold_search_depth": 0.02, "foothold_search_speed": 0.02,
         "foothold_touch_force": 2.0, "stumble_retry": True, "stumble_force": 10.0,
         "stumble_lift": 0.015, "stumble_retreat": 0.0, "stumble_lift_time": 0.12,
@@ -144,3 +144,18 @@ def test_parameters_boundaries_accepted():
     assert rough.attitude == AttitudeSettings(AttitudeMode.IMU, 0.5, 0.0)
     assert settings(default_values(SPECS)).stumble == StumbleSettings()
     assert settings(default_values(SPECS)).attitude == AttitudeSettings()
+
+
+@pytest.mark.parametrize(("change", "expected"), [
+    # another gait: its own swing time, stride and stance profile (the walk command's rule)
+    ({"gait": "diagonal"}, (G.swing_time, G.stride, G.stance_profile)),
+    ({"gait": "diagonal_sway"}, (G.swings["diagonal_sway"], G.stride, G.stance_profile)),
+    # a value set with it is kept (one equal to the default gait's own reads as not set)
+    ({"gait": "diagonal", "swing_time": 0.55}, (0.55, G.stride, G.stance_profile)),
+    ({"gait": "diagonal", "stride": 0.045}, (G.swing_time, 0.045, G.stance_profile)),
+    # the default gait: its own
+    ({}, (G.swing_time_of(G.gait), G.stride_of(G.gait), G.stance_profile_of(G.gait))),
+])
+def test_a_gait_parameter_takes_its_tables_own_defaults(change, expected):
+    d = settings(default_values(SPECS) | change).defaults
+    assert (d.swing_time, d.stride, d.stance_profile) == expected

@@ -59,7 +59,13 @@ def test_planned_advance_and_its_line() -> None:
     planned = planned_advance(parse_args(["--steps", "3"]))
     gait = load_config().gait  # two half steps + 3 cycles of two strides: 7 strides
     assert planned == pytest.approx([7 * gait.stride_of(gait.gait), 0.0], abs=1e-9)
-    line = advance_line(np.array([0.4109, -0.0029]), planned)
+    line = advance_line(np.array([0.4109, -0.0029]), np.array([0.42, 0.0]))
     assert line == ("  body advance          410.9 mm of 420.0 mm planned without slip "
                     "(0.98), -2.9 mm left (odom)")
     assert "(nan)" in advance_line(np.array([0.0, 0.0]), np.array([0.0, 0.0]))
+    # along the planned direction: sideways to the left, the body 3 mm behind the plan's line
+    line = advance_line(np.array([-0.003, 0.33]), np.array([0.0, 0.35]))
+    assert line == ("  body advance          330.0 mm of 350.0 mm planned without slip "
+                    "(0.94), +3.0 mm left (odom)")
+    sideways = planned_advance(parse_args(["--steps", "1", "--heading", str(math.pi / 2)]))
+    assert sideways == pytest.approx([0.0, 3 * gait.stride_of(gait.gait)], abs=1e-9)

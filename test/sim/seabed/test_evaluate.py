@@ -88,13 +88,16 @@ def test_plan_phases_boundaries(cfg):
     plan = plan_walk(cfg, WalkParams.defaults(cfg.gait, gait="diagonal"), 1)
     swing = plan.slots[0].swing_time
     group = list(plan.slots[0].group)
-    phases = plan_phases(plan, np.array([0.0, swing / 2, swing - 1e-9, swing]))
+    phases = plan_phases(plan, np.array([0.0, 1e-9, swing / 2, swing - 1e-9, swing,
+                                         swing + 1e-9]))
     others = [i for i in range(4) if i not in group]
-    assert not phases.stance[:3, group].any() and phases.stance[3, group].all()
-    assert phases.swing_phase[1, group] == pytest.approx(0.5)
-    assert phases.stance[:3, others].all() and np.isnan(phases.swing_phase[:3, others]).all()
-    assert not phases.stance[3, others].any()  # the next slot: the other pair lifts off
-    assert phases.swing_phase[3, others] == pytest.approx(0.0)
+    # at lift-off (A) and touch-down (E) the foot is on the ground: every foot down there
+    assert phases.stance[0].all() and phases.stance[4].all()
+    assert not phases.stance[1:4, group].any() and phases.stance[5, group].all()
+    assert phases.swing_phase[2, group] == pytest.approx(0.5)
+    assert phases.stance[:5, others].all() and np.isnan(phases.swing_phase[:5, others]).all()
+    assert not phases.stance[5, others].any()  # the next slot: the other pair has lifted off
+    assert phases.swing_phase[5, others] == pytest.approx(1e-9 / swing)
 
 
 def test_stance_runs_and_attitude():
