@@ -47,8 +47,9 @@ EARLY_CONFIRM = 2
 
 @dataclass(frozen=True)
 class FootholdSettings:
-    """``enabled`` (on by default: the planner walks the blind plan while the efforts carry
-    no ground load, `planner.contacts.ContactMonitor.ground_load`); early-contact
+    """``enabled`` (off by default: on the real-time stack it does not help the default gait,
+    docs/seabed.md; when on, the planner walks the blind plan while the efforts carry no
+    ground load, `planner.contacts.ContactMonitor.ground_load`); early-contact
     ``tolerance`` above the planned ground [m],
     ``stop_time`` of the smooth stop [s], ``search_depth`` below the planned ground [m], the
     search's peak ``search_speed`` [m/s] and the normal force [N] an early contact needs

@@ -85,8 +85,7 @@ def test_a_foot_that_finds_no_ground_holds_the_walk_with_the_leg_and_the_depth()
 
 def test_disabled_adaptation_ignores_the_contacts() -> None:
     core, t = _standing()
-    assert core.walk.foothold.settings.enabled  # the default: on
-    core.walk.foothold.configure(FootholdSettings(enabled=False))
+    assert not core.walk.foothold.settings.enabled  # the default
     feet, _ = _walk(core, t, FootContact.NO)
     assert core.state == STANDING
     assert set(core.walk.foothold.adapter.modes()) == {Mode.HELD}

@@ -44,7 +44,7 @@ def test_parameter_names_defaults_and_flags():
         "config_file": "robot.yaml", "calibration_file": "", "rate": 100.0, "cmd_vel_timeout": 0.5,
         "fault_hardware_id": "motor_manager", "tick_priority": 0, "contact_threshold": 0.75,
         "contact_hysteresis": 0.5, "contact_drive_inertia": 0.005, "contact_period": 0.01,
-        "foothold_adapt": True, "foothold_tolerance": 0.006, "foothold_stop_time": 0.04,
+        "foothold_adapt": False, "foothold_tolerance": 0.006, "foothold_stop_time": 0.04,
         "foothold_search_depth": 0.02, "foothold_search_speed": 0.02,
         "foothold_touch_force": 2.0, "stumble_retry": True, "stumble_force": 10.0,
         "stumble_lift": 0.015, "stumble_retreat": 0.0, "stumble_lift_time": 0.12,
