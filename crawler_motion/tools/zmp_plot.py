@@ -45,8 +45,6 @@ def draw(args: argparse.Namespace) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from crawler_motion.model.config import load_config
     from crawler_motion.motion.gait import WalkParams, plan_walk
     from crawler_motion.motion.zmp import zmp_of
@@ -92,13 +90,26 @@ def draw(args: argparse.Namespace) -> Path:
     measured_zmp = zmp_of(body, accel, omega2, cfg.medium.zmp_shift)
     cycles = steady_cycles(plan, t)
     k0, k1 = cycles[0][0], cycles[min(CYCLES, len(cycles)) - 1][1]
-    part = slice(k0, k1)
+    lines = [rec.feet[k][phases.stance[k], :2] for k in np.linspace(
+        k0, k1 - 1, CYCLES * len(cfg.gait.gaits[params.gait]) * LINES_PER_SLOT).astype(int)
+        if two[k]]
+    title = f"{params.gait}, {args.medium}: {CYCLES} steady cycles from above"
+    return _picture(args.out, title, lines, slice(k0, k1), two,
+                    {"planned body": planned_body, "body": body, "planned zmp": planned_zmp,
+                     "zmp": measured_zmp})
+
+
+def _picture(out: Path, title: str, lines: list[np.ndarray], part: slice, two: np.ndarray,
+             paths: dict[str, np.ndarray]) -> Path:
+    """Draw the support ``lines`` and the ``paths`` (world xy [m], samples ``part``; the
+    ZMPs where ``two`` feet are down) into ``out``."""
+    import matplotlib.pyplot as plt
+
+    planned_body, body = paths["planned body"], paths["body"]
+    planned_zmp, measured_zmp = paths["planned zmp"], paths["zmp"]
     fig, ax = plt.subplots(figsize=(8, 4.2))
-    for k in np.linspace(k0, k1 - 1, CYCLES * len(cfg.gait.gaits[params.gait])
-                         * LINES_PER_SLOT).astype(int):
-        if two[k]:
-            feet = rec.feet[k][phases.stance[k], :2]
-            ax.plot(feet[:, 0], feet[:, 1], color="0.75", lw=1.0, zorder=1)
+    for feet in lines:
+        ax.plot(feet[:, 0], feet[:, 1], color="0.75", lw=1.0, zorder=1)
     ax.plot([], [], color="0.75", lw=1.0, label="support lines (measured feet)")
     mask = two[part]
     ax.plot(*planned_body[part].T, color="tab:blue", lw=1.5, label="body path, planned")
@@ -110,16 +121,16 @@ def draw(args: argparse.Namespace) -> Path:
     ax.set_aspect("equal")
     ax.set_xlabel("x [m] (world)")
     ax.set_ylabel("y [m]")
-    ax.set_title(f"{params.gait}, {args.medium}: {CYCLES} steady cycles from above")
+    ax.set_title(title)
     ax.legend(loc="upper left", fontsize=7, ncol=2)
     lo, hi = body[part].min(axis=0), body[part].max(axis=0)
     ax.set_ylim(lo[1] - 0.25, hi[1] + 0.25)
     ax.set_xlim(lo[0] - 0.15, hi[0] + 0.15)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(args.out, dpi=90)
+    fig.savefig(out, dpi=90)
     plt.close(fig)
-    return args.out
+    return out
 
 
 if __name__ == "__main__":  # pragma: no cover

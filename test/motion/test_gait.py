@@ -104,7 +104,8 @@ def check_walk(p: WalkParams, steps: int) -> tuple[list[Slot], WalkParams]:
     kinds = ["start"] * (n - 1) + ["steady"] * (n * steps) + ["stop"] * (n - 1)
     # A crawl (always) and a diagonal walk with a transfer of 0.05 s or more sway the body:
     # over the first support before the first lift-off, then between supports.
-    crawl = v.gait == "wave" or (v.stance_time - v.swing_time) / 2 >= 0.05 - 1e-12
+    # (a gait planned from the ZMP moves its body in its transfers by that plan: no such slot)
+    crawl = sways(CFG, v.gait, v.swing_time, float(v.stance_time))
     if crawl:
         kinds.insert(0, "start")
         assert slots[0].group == () and slots[0].swing_time == 0.0
