@@ -23,6 +23,7 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2, PointField
 
+from crawler_motion.mapping.clouds import read_float32
 from crawler_motion.mapping.mapper import Pose, SkipReason, TerrainMapper
 from crawler_motion.mapping.odometry import OdometryVerdict
 from crawler_motion.mapping.parameters import mapper_parameters, mapper_settings
@@ -42,19 +43,9 @@ def stamp_seconds(stamp: Any) -> float:
 
 
 def read_xyz(msg: PointCloud2) -> np.ndarray | None:
-    """The x y z float32 fields of a cloud as ``(k, 3)`` float64; None if it has none."""
-    fields = {f.name: f for f in msg.fields}
-    if any(n not in fields or fields[n].datatype != PointField.FLOAT32 for n in "xyz"):
-        return None
-    count = msg.width * msg.height
-    if msg.point_step < 12 or len(msg.data) < count * msg.point_step:
-        return None
-    dtype = np.dtype({"names": list("xyz"), "formats": ["<f4" if not msg.is_bigendian
-                                                         else ">f4"] * 3,
-                      "offsets": [fields[n].offset for n in "xyz"],
-                      "itemsize": msg.point_step})
-    arr = np.frombuffer(bytes(msg.data[:count * msg.point_step]), dtype=dtype, count=count)
-    return np.column_stack([arr[n].astype(float) for n in "xyz"])
+    """The x y z float32 fields of a cloud as ``(k, 3)`` float64; None if it has none or they
+    do not fit the cloud (`clouds.read_float32`)."""
+    return read_float32(msg, ("x", "y", "z"))
 
 
 class TerrainMapperNode(Node):

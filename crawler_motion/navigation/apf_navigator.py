@@ -29,6 +29,7 @@ from enum import Enum
 import numpy as np
 
 from crawler_motion.errors import CommandError
+from crawler_motion.model.joint_state import finite_float
 from crawler_motion.navigation.apf.field import FieldSettings, Grid, ObstacleField
 from crawler_motion.navigation.apf.planner import (
     ApfMethod,
@@ -67,6 +68,10 @@ class Side(Enum):
     LEFT = "left"
 
 
+#: Longest follow_command text [characters].
+MAX_FOLLOW_TEXT = 1000
+
+
 @dataclass(frozen=True)
 class FollowCommand:
     """Walk ``length`` [m] along the nearest structure, kept on ``side``."""
@@ -76,19 +81,24 @@ class FollowCommand:
 
     @classmethod
     def from_json(cls, text: str) -> FollowCommand:
-        """``{"length": L, "side": "right"|"left"}``; `CommandError` saying what is wrong."""
+        """``{"length": L, "side": "right"|"left"}``; `CommandError` saying what is wrong
+        (text longer than `MAX_FOLLOW_TEXT`, nested too deep, numbers beyond the float range
+        included)."""
+        if not isinstance(text, str) or len(text) > MAX_FOLLOW_TEXT:
+            raise CommandError(f"follow command must be JSON text of at most {MAX_FOLLOW_TEXT} "
+                               f'characters such as {{"length": 2.0, "side": "right"}}')
         try:
             data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise CommandError(f"follow command is not JSON ({exc.msg}); send "
-                               '{"length": 2.0, "side": "right"}') from exc
+        except (ValueError, RecursionError) as exc:  # JSONDecodeError is a ValueError
+            raise CommandError(f"follow command is not JSON ({str(exc)[:80]}); send "
+                               '{"length": 2.0, "side": "right"}') from None
         if not isinstance(data, dict) or set(data) - {"length", "side"} or "length" not in data:
             raise CommandError('follow command needs {"length": L} and optionally "side" '
                                f"(right or left), got {text!r}")
-        length = data["length"]
-        if isinstance(length, bool) or not isinstance(length, int | float) or not (
-                math.isfinite(length) and length > 0):
-            raise CommandError(f"follow length must be a finite number > 0 m, got {length!r}")
+        length = finite_float(data["length"])
+        if length is None or length <= 0.0:
+            raise CommandError(f"follow length must be a finite number > 0 m, got "
+                               f"{str(data['length'])[:40]}")
         try:
             side = Side(data.get("side", Side.RIGHT.value))
         except ValueError as exc:

@@ -28,11 +28,12 @@ from geometry_msgs.msg import PoseStamped, Twist, Vector3
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
-from sensor_msgs.msg import JointState, PointCloud2, PointField
+from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from crawler_motion.errors import CommandError
+from crawler_motion.mapping.clouds import read_float32
 from crawler_motion.model.config import load_config
 from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.model.rotations import quaternion_matrix, yaw_of
@@ -51,19 +52,9 @@ STATUS_PERIOD = 1.0  # [s]
 
 
 def read_heights(msg: PointCloud2) -> np.ndarray | None:
-    """``(k, 4)`` x y z variance of a terrain_heights cloud; None when it lacks the fields."""
-    fields = {f.name: f for f in msg.fields}
-    names = ("x", "y", "z", "variance")
-    if any(n not in fields or fields[n].datatype != PointField.FLOAT32 for n in names):
-        return None
-    count = msg.width * msg.height
-    dtype = np.dtype({"names": list(names), "formats": ["<f4"] * 4,
-                      "offsets": [fields[n].offset for n in names],
-                      "itemsize": msg.point_step})
-    if len(msg.data) < count * msg.point_step:
-        return None
-    arr = np.frombuffer(bytes(msg.data[:count * msg.point_step]), dtype=dtype, count=count)
-    return np.column_stack([arr[n].astype(float) for n in names])
+    """``(k, 4)`` x y z variance of a terrain_heights cloud; None when it lacks the fields or
+    they do not fit the cloud (`mapping.clouds.read_float32`)."""
+    return read_float32(msg, ("x", "y", "z", "variance"))
 
 
 class NavigatorNode(Node):
