@@ -61,6 +61,24 @@ class NavigatorSettings:
     timeout: float = 300.0  # [s]
     standoff: float = 0.10  # apf: ρ_o, repulsion range and stand-off distance [m]
     path_lookahead: float = 0.25  # apf: steer to the path point this far along it [m]
+    max_goal_distance: float = 10.0  # a goal farther from the body is refused [m]
+
+
+def goal_error(x: float, y: float, body: tuple[float, float] | None,
+               max_distance: float) -> str | None:
+    """Why a goal at (``x``, ``y``) [m, odom] is refused with the body at ``body`` (None: no
+    odometry yet, the origin is used): not finite, or farther than ``max_distance`` [m]
+    (planning that far on the map window costs seconds per cycle and gigabytes); None if it
+    is accepted."""
+    if not (math.isfinite(x) and math.isfinite(y)):
+        return f"goal ({x}, {y}) is not finite; give x and y in metres"
+    bx, by = (0.0, 0.0) if body is None else body
+    distance = math.hypot(x - bx, y - by)
+    if not distance <= max_distance:
+        far = f"{distance:.6g} m" if math.isfinite(distance) else "more than 1e308 m"
+        return (f"goal ({x:.6g}, {y:.6g}) is {far} from the body, beyond max_goal_distance "
+                f"{max_distance:g} m; send nearer goals (waypoints)")
+    return None
 
 
 @dataclass(frozen=True)

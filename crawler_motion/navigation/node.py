@@ -40,7 +40,7 @@ from crawler_motion.model.rotations import quaternion_matrix, yaw_of
 from crawler_motion.navigation.apf_navigator import ApfNavigator, FollowCommand
 from crawler_motion.navigation.body import envelope_radius, virtual_radius
 from crawler_motion.navigation.methods import make_navigator
-from crawler_motion.navigation.navigator import Method, NavState
+from crawler_motion.navigation.navigator import Method, NavState, goal_error
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
 from crawler_motion.navigation.planner_watch import RefusalWatch
 from crawler_motion.navigation.view import view_from_grid
@@ -101,8 +101,14 @@ class NavigatorNode(Node):
         if msg.header.frame_id != self.frame:
             self._refuse(f"goal in frame '{msg.header.frame_id}'; send it in '{self.frame}'")
             return
+        x, y = msg.pose.position.x, msg.pose.position.y
+        why = goal_error(x, y, None if self._pose is None else self._pose[:2],
+                         self.nav.settings.max_goal_distance)
+        if why is not None:
+            self._refuse(why)
+            return
         try:
-            self.nav.set_goal(msg.pose.position.x, msg.pose.position.y, time.monotonic())
+            self.nav.set_goal(x, y, time.monotonic())
         except CommandError as exc:
             self._refuse(str(exc))
             return

@@ -47,6 +47,8 @@ NAVIGATOR_PARAMETERS: tuple[ParamSpec, ...] = (
               "followed structure [m]", read_only=True, minimum=0.01, maximum=1.0, unit="m"),
     ParamSpec("path_lookahead", 0.25, "apf: steer towards the point of the path this far "
               "along it [m]", read_only=True, minimum=0.02, maximum=2.0, unit="m"),
+    ParamSpec("max_goal_distance", 10.0, "a goal farther from the body is refused (send "
+              "waypoints) [m]", read_only=True, minimum=0.1, maximum=1000.0, unit="m"),
     ParamSpec("odom_timeout", 0.5, "no walking on odometry or a map older than this [s]",
               read_only=True, minimum=0.05, maximum=10.0, unit="s"),
 )
@@ -63,4 +65,4 @@ def navigator_settings(values: Mapping[str, Any]) -> NavigatorSettings:
         max_yaw_rate=v["max_yaw_rate"], goal_tolerance=v["goal_tolerance"],
         slow_radius=v["slow_radius"], margin=v["margin"], lookahead=v["lookahead"],
         max_turn=math.radians(v["max_turn"]), timeout=v["timeout"], standoff=v["standoff"],
-        path_lookahead=v["path_lookahead"])
+        path_lookahead=v["path_lookahead"], max_goal_distance=v["max_goal_distance"])

@@ -75,7 +75,7 @@ def test_a_follow_command_parses(text, length, side) -> None:
     ('{"length": 2, "side": "up"}', "right or left"),
     # hostile input that used to crash the navigator (RecursionError, OverflowError, ...)
     ("[" * 100_000, "at most 1000 characters"), ("[" * 999, "not JSON"),
-    ('{"length": ' + "9" * 400 + "}", "finite"), ('{"length": ' + "9" * 990 + "}", "finite"),
+    ('{"length": ' + "9" * 400 + "}", "finite"), ('{"length": ' + "9" * 980 + "}", "finite"),
     ('{"length": 1e999}', "finite"), ("x" * 1001, "at most 1000 characters")])
 def test_a_bad_follow_command_is_refused_with_the_reason(text, says) -> None:
     with pytest.raises(CommandError, match=says):

@@ -103,3 +103,24 @@ def test_a_non_finite_goal_is_refused_and_changes_nothing(x: float, y: float) ->
     with pytest.raises(CommandError, match="not finite"):
         nav.set_goal(x, y, 0.0)
     assert nav.state is NavState.IDLE and nav.goal is None
+@pytest.mark.parametrize(("x", "y", "body", "says"), [
+    (1e9, 0.0, None, "beyond max_goal_distance 10 m"),
+    (1.7e308, 1.7e308, (0.0, 0.0), "beyond max_goal_distance"),  # no Infinity anywhere
+    (50.0, 0.0, (0.0, 0.0), "50 m from the body"),
+    (10.0 + 1e-9, 0.0, None, "beyond"),
+    (float("nan"), 0.0, None, "not finite"),
+    (float("inf"), 0.0, None, "not finite"),
+])
+def test_a_goal_beyond_reach_is_refused_with_the_reason(x, y, body, says):
+    from crawler_motion.navigation.navigator import goal_error
+
+    why = goal_error(x, y, body, 10.0)
+    assert why is not None and says in why
+    assert "inf" not in why.lower() or "not finite" in why
+
+
+@pytest.mark.parametrize(("x", "y", "body"), [(10.0, 0.0, None), (12.0, 3.0, (2.0, 3.0))])
+def test_a_goal_within_reach_is_accepted(x, y, body):
+    from crawler_motion.navigation.navigator import goal_error
+
+    assert goal_error(x, y, body, 10.0) is None
