@@ -30,10 +30,13 @@ from crawler_motion.mapping.parameters import mapper_parameters, mapper_settings
 from crawler_motion.mapping.points import Mount
 from crawler_motion.model.config import load_config, load_scanner
 from crawler_motion.model.rotations import quaternion_matrix
+from crawler_motion.runtime.log import Throttle
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 
 NAME = "terrain_mapper"
+#: A skip or refusal reason is logged at most once per this period [s] (each reason apart).
+LOG_PERIOD = 1.0
 FIELDS = ("x", "y", "z", "variance")
 
 
@@ -68,14 +71,15 @@ class TerrainMapperNode(Node):
         self._heights = self.create_publisher(PointCloud2, "terrain_heights", 2)
         self.create_subscription(PointCloud2, "scan", self._on_scan, qos_profile_sensor_data)
         self.create_subscription(Odometry, "odom", self._on_odom, 20)
+        self._throttle = Throttle(LOG_PERIOD)  # warnings by reason
         self.create_timer(1.0 / values["publish_rate"], self._publish)
         self.get_logger().info(f"{NAME}: {self.mapper.settings.cells}² cells of "
                                f"{self.mapper.settings.resolution:g} m in {self.frame}")
 
     def _skip(self, reason: SkipReason) -> None:
-        self.get_logger().warning(
-            f"scan skipped: {reason.value} ({self.mapper.skipped[reason]} so far)",
-            throttle_duration_sec=1.0)
+        if self._throttle.allow(reason):  # once a second per reason, not per call site
+            self.get_logger().warning(
+                f"scan skipped: {reason.value} ({self.mapper.skipped[reason]} so far)")
 
     def _on_odom(self, msg: Odometry) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
@@ -89,10 +93,10 @@ class TerrainMapperNode(Node):
                                                 np.array([p.x, p.y, p.z])), now)
         if verdict is OdometryVerdict.RESET:
             self.get_logger().error(f"odom: {verdict.value}")
-        elif verdict is not None:
+        elif verdict is not None and self._throttle.allow(verdict):
             self.get_logger().warning(
                 f"odom skipped: {verdict.value} "
-                f"({self.mapper.odometry_refused[verdict]} so far)", throttle_duration_sec=1.0)
+                f"({self.mapper.odometry_refused[verdict]} so far)")
         else:  # held scans it released and could not fuse
             self._report(before)
 

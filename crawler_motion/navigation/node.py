@@ -44,11 +44,14 @@ from crawler_motion.navigation.navigator import Method, NavState, goal_error
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
 from crawler_motion.navigation.planner_watch import RefusalWatch
 from crawler_motion.navigation.view import view_from_grid
+from crawler_motion.runtime.log import Throttle
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 
 NAME = "navigator"
 STATUS_PERIOD = 1.0  # [s]
+#: Refusals publish ``navigation_status`` at most this often [s] (as the planner's do).
+REFUSAL_STATUS_PERIOD = 0.1
 
 
 def read_heights(msg: PointCloud2) -> np.ndarray | None:
@@ -87,15 +90,22 @@ class NavigatorNode(Node):
         self.create_subscription(JointState, "joint_states", self._on_joints,
                                  qos_profile_sensor_data)
         self._planner = RefusalWatch()
+        self._refusal_log = Throttle(1.0)
+        self._refusal_status = Throttle(REFUSAL_STATUS_PERIOD)
         self.create_subscription(String, "planner_status", self._on_planner_status, latched)
         self.create_service(Trigger, "~/cancel", self._on_cancel)
         self.create_timer(STATUS_PERIOD, lambda: self._publish_status(force=True))
         self._publish_status(force=True)
 
     def _refuse(self, why: str) -> None:
+        """Count a refusal; its log line at most once a second per reason and the status at
+        most every `REFUSAL_STATUS_PERIOD` (a flood of bad goals floods neither; the 1 Hz
+        status carries the count)."""
         self.refusals, self.last_refusal = self.refusals + 1, why
-        self.get_logger().warning(f"goal refused: {why}")
-        self._publish_status(force=True)
+        if self._refusal_log.allow(why):
+            self.get_logger().warning(f"goal refused: {why} ({self.refusals} so far)")
+        if self._refusal_status.allow("status"):
+            self._publish_status(force=True)
 
     def _on_goal(self, msg: PoseStamped) -> None:
         if msg.header.frame_id != self.frame:

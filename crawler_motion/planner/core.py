@@ -21,7 +21,9 @@ closed-form IK with the limit check and the Jacobian, in plain floats).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -149,6 +151,20 @@ class PlannerCore(CoreReadouts):
             self.ctx.journal.refuse(str(exc), now)
         self.command(cmd, now)
         return cmd
+
+    def upfront_job(self, text: str | None = None,
+                    twist: tuple[float, float, float] | None = None
+                    ) -> Callable[[], object] | None:
+        """The up-front check of the walk a gait command ``text`` or a ``twist`` would start
+        (`upfront.UpfrontCheck`, tens of ms), as a job the caller may run without its lock
+        before submitting it (it fills the check's cache); None when there is none."""
+        try:
+            walk = (self.requests.walk_to_check(parse_gait_command(text, self.cfg), self._base())
+                    if text is not None else None if twist is None
+                    else self.requests.twist_to_check(*twist, self._base()))
+        except (CommandError, TypeError):
+            return None
+        return None if walk is None else partial(self.requests.upfront, *walk)
 
     def record_refusal(self, reason: str, now: float) -> None:
         """Record a refusal decided elsewhere (e.g. a bad parameter set) in the status."""

@@ -15,19 +15,13 @@ transient local) on every change and at least once a second; the foot contacts e
 the joint efforts on ``foot_contacts`` and ``/diagnostics`` (`planner.contact_topics`).
 
 Joint commands are published from a `ticker.Ticker` thread on the steady clock, not from an
-rclpy timer: the executor also runs every callback, and a busy executor delays or skips timer
-ticks. After each tick it wakes a second thread (`planning_thread.AheadPlanner`) that plans
-the next gait slot ahead of its boundary (`PlannerCore.ahead_job`, computed without the lock),
-so no tick waits for planning. Ticks skipped because the process was starved are counted
-(``missed_ticks`` in the status; a message is logged).
+rclpy timer (a busy executor delays or skips timer ticks). After each tick it wakes a second
+thread (`planning_thread.AheadPlanner`) that plans the next gait slot ahead of its boundary
+without the lock. Ticks skipped because the process was starved are counted (``missed_ticks``).
 
-The parameters are the `ParamSpec`s of `planner.parameters`, validated by
-`planner_settings` at start-up and on every change (refused with the reason). ``config_file``,
-``calibration_file`` (the legs' geometry for IK and FK) and ``tick_priority`` are read-only;
-a new ``rate`` changes the period of the ticker; new gait defaults apply to the next walk or
-stand, not to a walk in progress. All callbacks share the node's default (mutually exclusive)
-callback group and a lock around the core, so the node is also safe under a
-MultiThreadedExecutor and with `set_parameters` called from another thread. Spin it
+Parameters: `planner.parameters` (validated at start-up and on every change; docs/nodes.md).
+All callbacks share the node's default (mutually exclusive) callback group and a lock around
+the core; a new walk's up-front check runs before the lock is taken (`_checked`). Spin it
 single-threaded (as `main` does).
 """
 
@@ -265,17 +259,24 @@ class PlannerNode(Node):
 
     # ----------------------------------------------------------------- inputs
     def _on_gait_command(self, msg: String) -> None:
-        with self._lock:
-            try:
-                self.core.submit(msg.data, time.monotonic())
-            except CommandError:
-                pass  # recorded by the core: status + events
-        self._after_core_call()
+        self._checked(lambda: self.core.upfront_job(text=msg.data),
+                      lambda: self.core.submit(msg.data, time.monotonic()))
 
     def _on_twist(self, msg: Twist) -> None:
+        twist = (msg.linear.x, msg.linear.y, msg.angular.z)
+        self._checked(lambda: self.core.upfront_job(twist=twist),
+                      lambda: self.core.on_twist(*twist, time.monotonic()))
+
+    def _checked(self, job_of: Callable[[], Any], call: Callable[[], Any]) -> None:
+        """``call`` the core under the lock (refusals: recorded by the core) after the new
+        walk's up-front check ``job_of`` gives, run without it (tens of ms: no tick stalls)."""
+        with self._lock:
+            job = job_of()
+        if job is not None:
+            job()
         with self._lock:
             try:
-                self.core.on_twist(msg.linear.x, msg.linear.y, msg.angular.z, time.monotonic())
+                call()
             except CommandError:
                 pass
         self._after_core_call()

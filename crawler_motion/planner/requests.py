@@ -27,6 +27,30 @@ class WalkRequests:
         self.walk_ctl = walk
         self.upfront = UpfrontCheck(cfg)
 
+    def walk_to_check(self, cmd: Command, standing_base: WalkParams
+                      ) -> tuple[WalkParams, int] | None:
+        """The walk (parameters, steps) that `walk` would check up front for ``cmd``, found
+        without changing anything; None for another command or one refused anyway."""
+        ctl = self.walk_ctl
+        base = standing_base if self.ctx.state == STANDING else (ctl.pending or ctl.params)
+        if cmd.kind != "walk" or base is None:
+            return None
+        try:
+            return cmd.apply(base, self.cfg), cmd.steps or 1
+        except CommandError:
+            return None
+
+    def twist_to_check(self, vx: float, vy: float, wz: float, standing_base: WalkParams
+                       ) -> tuple[WalkParams, int] | None:
+        """The walk that `twist` would check up front (a twist that starts a walk from
+        standing), found without changing anything; None otherwise."""
+        if self.ctx.state != STANDING or is_zero_twist(vx, vy, wz):
+            return None
+        try:
+            return twist_to_params(vx, vy, wz, self.cfg, standing_base), 1
+        except CommandError:
+            return None
+
     def _check_upfront(self, params: WalkParams, steps: int, now: float) -> None:
         error = self.upfront(params, steps)
         if error is not None:

@@ -786,3 +786,26 @@ def test_the_default_gait_walks_through_the_core_as_planned(twist):
     q = positions(clock)
     assert np.abs(np.diff(q, axis=0)).max() < 0.05  # no jump
     np.testing.assert_allclose(q[-1], STAND.reshape(-1), atol=1e-9)
+
+
+def test_a_new_walks_upfront_check_can_run_before_the_command(monkeypatch):
+    # the node runs the job without its lock, then submits: the submit finds it cached
+    clock = standing(defaults=WalkParams.defaults(CFG.gait))
+    core = clock.core
+    assert core.upfront_job(text='{"command": "stand"}') is None
+    assert core.upfront_job(text="not json") is None
+    assert core.upfront_job(twist=(0.0, 0.0, 0.0)) is None  # a zero twist starts nothing
+    job = core.upfront_job(text='{"command": "walk", "steps": 2, "heading": 0.5}')
+    assert job is not None
+    job()
+    calls = []
+    monkeypatch.setattr(upfront, "plan_walk", lambda *a: calls.append(a))
+    clock.send('{"command": "walk", "steps": 2, "heading": 0.5}')
+    assert core.state == WALKING and calls == []  # the verdict came from the cache
+    clock.until(STANDING)
+    job = core.upfront_job(twist=(0.05, 0.0, 0.0))
+    assert job is not None
+    job()  # (the stub stands in for plan_walk here: one call, by the job)
+    assert len(calls) == 1
+    core.on_twist(0.05, 0.0, 0.0, clock.t)
+    assert core.state == WALKING and len(calls) == 1
