@@ -19,10 +19,8 @@ rclpy timer (a busy executor delays or skips timer ticks). After each tick it wa
 thread (`planning_thread.AheadPlanner`) that plans the next gait slot ahead of its boundary
 without the lock. Ticks skipped because the process was starved are counted (``missed_ticks``).
 
-Parameters: `planner.parameters` (validated at start-up and on every change; docs/nodes.md).
-All callbacks share the node's default (mutually exclusive) callback group and a lock around
-the core; a new walk's up-front check runs before the lock is taken (`_checked`). Spin it
-single-threaded (as `main` does).
+Parameters: `planner.parameters` (docs/nodes.md). Callbacks share the default callback group
+and a lock around the core (a new walk's up-front check runs before it is taken, `_checked`).
 """
 
 from __future__ import annotations
