@@ -14,13 +14,12 @@ at ``rate`` Hz (nothing in IDLE and ESTOP), and ``planner_status`` (std_msgs/Str
 transient local) on every change and at least once a second; the foot contacts estimated from
 the joint efforts on ``foot_contacts`` and ``/diagnostics`` (`planner.contact_topics`).
 
-Joint commands are published from a `ticker.Ticker` thread on the steady clock, not from an
-rclpy timer (a busy executor delays or skips timer ticks). After each tick it wakes a second
-thread (`planning_thread.AheadPlanner`) that plans the next gait slot ahead of its boundary
-without the lock. Ticks skipped because the process was starved are counted (``missed_ticks``).
+Joint commands come from a `ticker.Ticker` thread on the steady clock (not an rclpy timer);
+after each tick it wakes `planning_thread.AheadPlanner`, which plans the next slot ahead
+without the lock. Ticks skipped because the process was starved count as ``missed_ticks``.
 
 Parameters: `planner.parameters` (docs/nodes.md). Callbacks share the default callback group
-and a lock around the core (a new walk's up-front check runs before it is taken, `_checked`).
+and a lock around the core (a new walk's up-front check runs before it is taken).
 """
 
 from __future__ import annotations
@@ -257,26 +256,14 @@ class PlannerNode(Node):
 
     # ----------------------------------------------------------------- inputs
     def _on_gait_command(self, msg: String) -> None:
-        self._checked(lambda: self.core.upfront_job(text=msg.data),
-                      lambda: self.core.submit(msg.data, time.monotonic()))
+        _checked(self._lock, lambda: self.core.upfront_job(text=msg.data),
+                 lambda: self.core.submit(msg.data, time.monotonic()))
+        self._after_core_call()
 
     def _on_twist(self, msg: Twist) -> None:
         twist = (msg.linear.x, msg.linear.y, msg.angular.z)
-        self._checked(lambda: self.core.upfront_job(twist=twist),
-                      lambda: self.core.on_twist(*twist, time.monotonic()))
-
-    def _checked(self, job_of: Callable[[], Any], call: Callable[[], Any]) -> None:
-        """``call`` the core under the lock (refusals: recorded by the core) after the new
-        walk's up-front check ``job_of`` gives, run without it (tens of ms: no tick stalls)."""
-        with self._lock:
-            job = job_of()
-        if job is not None:
-            job()
-        with self._lock:
-            try:
-                call()
-            except CommandError:
-                pass
+        _checked(self._lock, lambda: self.core.upfront_job(twist=twist),
+                 lambda: self.core.on_twist(*twist, time.monotonic()))
         self._after_core_call()
 
     def _on_joint_states(self, msg: JointState, received: float | None = None) -> None:
@@ -386,6 +373,20 @@ class PlannerNode(Node):
         """Log ``message``; a warning or error repeated within `LOG_REPEAT_PERIOD` is not."""
         if severity is Severity.INFO or self._repeats.allow(message):
             log(self.get_logger(), severity, message)
+
+
+def _checked(lock: threading.Lock, job_of: Callable[[], Any], call: Callable[[], Any]
+             ) -> None:
+    """``call`` the core under ``lock`` after the up-front check ``job_of`` gives, run without
+    it (a new walk's tens of ms: the ticks go on; refusals are recorded by the core)."""
+    with lock:
+        job = job_of()
+    job() if job is not None else None
+    with lock:
+        try:
+            call()
+        except CommandError:
+            pass
 
 
 def main(args: list[str] | None = None) -> None:
