@@ -192,8 +192,6 @@ def _spin(node: RecorderNode, duration: float | None, quiet: bool,
             last = time.monotonic()
             print("\r" + progress(node.sink, last - start, can_log), end="", file=sys.stderr,
                   flush=True)
-    if not quiet:
-        print("\r" + progress(node.sink, time.monotonic() - start, can_log), file=sys.stderr)
 
 
 def _open(args: argparse.Namespace) -> tuple[McapSink, CanLog | None]:
@@ -222,6 +220,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rclpy.init(args=None)
     node = None
     status = 0
+    start = time.monotonic()
     try:
         node = RecorderNode(sink, args.topics)
         _spin(node, args.duration, args.quiet, can_log)
@@ -232,6 +231,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         status = 1
     finally:
         status = _close(sink, can_log, node) or status
+        if not args.quiet:  # the last line, also after Ctrl-C / SIGTERM (and rclpy's warnings)
+            print("\r" + progress(sink, time.monotonic() - start, can_log), file=sys.stderr)
     return status
 
 

@@ -86,8 +86,10 @@ class McapSink:
         return sum(self.counts.values())
 
     def size(self) -> int:
-        """Bytes in the file so far."""
-        return 0 if self.stream.closed else self.stream.tell()
+        """Bytes in the file so far (the file's size once closed)."""
+        if not self.stream.closed:
+            return self.stream.tell()
+        return self.path.stat().st_size if self.path.exists() else 0
 
     def abort(self) -> None:
         """Close the file without the summary (after a write error)."""
