@@ -150,10 +150,8 @@ class TerrainMapper:
         verdict = self.gate.check(pose, now)
         if verdict is OdometryVerdict.RESET:
             self.odometry_refused[verdict] += 1
-            stream = list(self.gate.candidate)
             self._clear()
-            for sample in stream:
-                self.gate.check(sample)
+            for sample in self.gate.adopted:  # the new stream, already accepted by the gate
                 self._keep(sample)  # type: ignore[arg-type]
             return verdict
         if verdict is not OdometryVerdict.ACCEPT:

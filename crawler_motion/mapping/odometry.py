@@ -65,6 +65,8 @@ class OdometryGate:
         self.latest: _Stamped | None = None
         #: Refused samples in a row that agree with each other: a possible new stream.
         self.candidate: list[_Stamped] = []
+        #: The samples of the new stream the last ``RESET`` adopted, in order.
+        self.adopted: list[_Stamped] = []
 
     def plausible(self, before: _Stamped, after: _Stamped) -> bool:
         """True when ``after`` may follow ``before`` (later stamp, motion within limits)."""
@@ -76,8 +78,9 @@ class OdometryGate:
 
     def check(self, pose: _Stamped, now: float | None = None) -> OdometryVerdict:
         """The verdict on ``pose``; ``now`` [s]: the receiver's clock in the stamps' time base
-        (None: not checked against a clock). An accepted pose becomes the latest; after a
-        ``RESET`` the caller re-adds `candidate` (the new stream) in order."""
+        (None: not checked against a clock). An accepted pose becomes the latest; a ``RESET``
+        adopts the new stream (`adopted`, its last sample the latest), which the caller
+        keeps in order."""
         lim = self.limits
         if not (np.all(np.isfinite(pose.rotation)) and np.all(np.isfinite(pose.position))
                 and math.isfinite(pose.stamp)) or float(
@@ -95,6 +98,7 @@ class OdometryGate:
             self.candidate.clear()
         self.candidate.append(pose)
         if len(self.candidate) >= lim.reset_samples:
-            self.latest = None
+            self.adopted, self.candidate = self.candidate, []
+            self.latest = self.adopted[-1]
             return OdometryVerdict.RESET
         return verdict

@@ -5,7 +5,7 @@ Loaded and validated once with the rest of ``robot.yaml`` (`crawler_motion.model
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -121,17 +121,23 @@ def _parse_gaits(data: Mapping[str, Any], legs: tuple[str, ...], where: str
     return gaits
 
 
+def _table_entries(data: Mapping[str, Any], key: str, where: str
+                   ) -> Iterator[tuple[str, Any, str]]:
+    """The phase tables that set ``key``: (gait, the value, where it is)."""
+    for name, table in _section(data, "gaits", where).items():
+        if isinstance(table, Mapping) and key in table:
+            yield str(name), table[key], f"{where}.gaits.{name}.{key}"
+
+
 def _parse_table_values(data: Mapping[str, Any], key: str, unit: str, where: str
                         ) -> dict[str, float]:
     """The phase tables' own ``key`` (a number >= 0, in ``unit``), by gait."""
     values: dict[str, float] = {}
-    for name, table in _section(data, "gaits", where).items():
-        if isinstance(table, Mapping) and key in table:
-            what = f"{where}.gaits.{name}.{key}"
-            value = _number(table[key], what)
-            if value < 0:
-                raise ConfigError(f"{what} must be >= 0{unit}, got {value}")
-            values[str(name)] = value
+    for name, raw, what in _table_entries(data, key, where):
+        value = _number(raw, what)
+        if value < 0:
+            raise ConfigError(f"{what} must be >= 0{unit}, got {value}")
+        values[name] = value
     return values
 
 
@@ -156,12 +162,10 @@ def _parse_table_choices(data: Mapping[str, Any], key: str, allowed: tuple[str, 
                          where: str) -> dict[str, str]:
     """The phase tables' own ``key`` (one of ``allowed``), by gait."""
     values: dict[str, str] = {}
-    for name, table in _section(data, "gaits", where).items():
-        if isinstance(table, Mapping) and key in table:
-            if table[key] not in allowed:
-                raise ConfigError(f"{where}.gaits.{name}.{key} must be one of {list(allowed)}, "
-                                  f"got {table[key]!r}")
-            values[str(name)] = str(table[key])
+    for name, raw, what in _table_entries(data, key, where):
+        if raw not in allowed:
+            raise ConfigError(f"{what} must be one of {list(allowed)}, got {raw!r}")
+        values[name] = str(raw)
     return values
 
 

@@ -139,9 +139,7 @@ class ContactMonitor:
         else:
             self._missing_since = None
         estimate = self.estimator.update(stamp, angles, tau)
-        self._now = now
-        if float(np.nansum(estimate.normal_forces)) > GROUND_LOAD:
-            self._loaded_at = now  # (`take` keeps the same rule)
+        self._note_load(estimate, now)
         if why:
             estimate = ContactEstimate(estimate.stamp, estimate.states, estimate.normal_forces,
                                        estimate.forces, why)
@@ -158,9 +156,14 @@ class ContactMonitor:
         ``now`` [s]: the ground load follows it as it follows `update`'s."""
         with self._lock:
             self.last = estimate
-            self._now = now
-            if float(np.nansum(estimate.normal_forces)) > GROUND_LOAD:
-                self._loaded_at = now
+            self._note_load(estimate, now)
+
+    def _note_load(self, estimate: ContactEstimate, now: float) -> None:
+        """The ground-load rule: ``estimate`` at steady time ``now`` [s] carries the robot's
+        weight when its normal forces add up to more than `GROUND_LOAD`."""
+        self._now = now
+        if float(np.nansum(estimate.normal_forces)) > GROUND_LOAD:
+            self._loaded_at = now
 
     def report(self) -> dict[str, Any]:
         """``effort`` and ``feet`` (contact, normal force [N] or None) of the last estimate."""

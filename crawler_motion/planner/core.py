@@ -158,12 +158,7 @@ class PlannerCore(CoreReadouts):
         """The up-front check of the walk a gait command ``text`` or a ``twist`` would start
         (`upfront.UpfrontCheck`, tens of ms), as a job the caller may run without its lock
         before submitting it (it fills the check's cache); None when there is none."""
-        try:
-            walk = (self.requests.walk_to_check(parse_gait_command(text, self.cfg), self._base())
-                    if text is not None else None if twist is None
-                    else self.requests.twist_to_check(*twist, self._base()))
-        except (CommandError, TypeError):
-            return None
+        walk = self.requests.to_check(text, twist, self._base())
         return None if walk is None else partial(self.requests.upfront, *walk)
 
     def record_refusal(self, reason: str, now: float) -> None:

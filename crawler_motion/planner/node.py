@@ -377,11 +377,11 @@ class PlannerNode(Node):
 
 def _checked(lock: threading.Lock, job_of: Callable[[], Any], call: Callable[[], Any]
              ) -> None:
-    """``call`` the core under ``lock`` after the up-front check ``job_of`` gives, run without
-    it (a new walk's tens of ms: the ticks go on; refusals are recorded by the core)."""
+    """``call`` the core under ``lock`` after ``job_of``'s up-front check, run without it."""
     with lock:
         job = job_of()
-    job() if job is not None else None
+    if job is not None:  # a new walk's tens of ms: the ticks go on
+        job()
     with lock:
         try:
             call()

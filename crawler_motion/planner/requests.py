@@ -9,6 +9,7 @@ from crawler_motion.planner.commands import (
     Command,
     finite_float,
     is_zero_twist,
+    parse_gait_command,
     twist_to_params,
 )
 from crawler_motion.planner.context import PlannerContext
@@ -26,6 +27,17 @@ class WalkRequests:
         self.ctx = ctx
         self.walk_ctl = walk
         self.upfront = UpfrontCheck(cfg)
+
+    def to_check(self, text: str | None, twist: tuple[float, float, float] | None,
+                 standing_base: WalkParams) -> tuple[WalkParams, int] | None:
+        """The walk (parameters, steps) the gait command ``text``, else the ``twist``, would
+        check up front (`walk_to_check`, `twist_to_check`); None for anything else."""
+        if text is not None:
+            try:
+                return self.walk_to_check(parse_gait_command(text, self.cfg), standing_base)
+            except CommandError:
+                return None
+        return None if twist is None else self.twist_to_check(*twist, standing_base)
 
     def walk_to_check(self, cmd: Command, standing_base: WalkParams
                       ) -> tuple[WalkParams, int] | None:

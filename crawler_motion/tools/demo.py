@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from crawler_motion.model.rotations import quaternion_matrix, roll_pitch
 from crawler_motion.runtime.cli_args import OneLineParser, positive_int
 from crawler_motion.testing.bus import BusSpec
 from crawler_motion.testing.stack import (
@@ -120,9 +121,11 @@ class BodyTrack:
         yaw = np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
         self.pose = np.array([p.x, p.y, yaw])
         if self.steady():
-            roll = np.arctan2(2 * (q.w * q.x + q.y * q.z), 1 - 2 * (q.x * q.x + q.y * q.y))
-            pitch = np.arcsin(np.clip(2 * (q.w * q.y - q.z * q.x), -1.0, 1.0))
-            self.attitude.append((float(roll), float(pitch)))
+            try:
+                self.attitude.append(roll_pitch(quaternion_matrix(np.array([q.w, q.x, q.y,
+                                                                            q.z]))))
+            except ValueError:  # a quaternion without a direction: no attitude sample
+                pass
 
     def attitude_line(self) -> str:
         """The summary line of the body's roll and pitch peak to peak in the steady cycles."""

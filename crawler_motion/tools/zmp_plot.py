@@ -5,7 +5,7 @@ The walk is replayed through the seabed physics in lock-step (`sim.seabed.replay
 evaluator's run). The planned ZMP is the plan's own: the body pose from the planned contact
 points held on the ground (`metrics.no_slip_path`, aligned with the measured start), plus the
 ZMP in the body frame from the stance feet's planned acceleration. The measured one comes from
-the measured body motion (`metrics.zmp_distances`' rule).
+the measured body motion (`metrics.measured_zmp`, as the evaluator's).
 """
 
 from __future__ import annotations
@@ -47,10 +47,9 @@ def draw(args: argparse.Namespace) -> Path:
     matplotlib.use("Agg")
     from crawler_motion.model.config import load_config
     from crawler_motion.motion.gait import WalkParams, plan_walk
-    from crawler_motion.motion.zmp import zmp_of
     from crawler_motion.sim.seabed.evaluate import medium_of
     from crawler_motion.sim.seabed.metrics import (
-        ZMP_SMOOTHING,
+        measured_zmp,
         no_slip_path,
         plan_phases,
         steady_cycles,
@@ -82,12 +81,7 @@ def draw(args: argparse.Namespace) -> Path:
     planned_zmp = planned_body + np.stack((c * z_body[:, 0] - s * z_body[:, 1],
                                            s * z_body[:, 0] + c * z_body[:, 1]), axis=-1)
     body = rec.base[:, :2]
-    dt = float(np.median(np.diff(t)))
-    width = max(1, round(ZMP_SMOOTHING / dt))
-    accel = np.gradient(np.gradient(body, t, axis=0), t, axis=0)
-    kernel = np.ones(width) / width
-    accel = np.stack([np.convolve(accel[:, d], kernel, mode="same") for d in range(2)], axis=-1)
-    measured_zmp = zmp_of(body, accel, omega2, cfg.medium.zmp_shift)
+    measured = measured_zmp(rec, omega2, cfg.medium.zmp_shift)
     cycles = steady_cycles(plan, t)
     k0, k1 = cycles[0][0], cycles[min(CYCLES, len(cycles)) - 1][1]
     lines = [rec.feet[k][phases.stance[k], :2] for k in np.linspace(
@@ -96,7 +90,7 @@ def draw(args: argparse.Namespace) -> Path:
     title = f"{params.gait}, {args.medium}: {CYCLES} steady cycles from above"
     return _picture(args.out, title, lines, slice(k0, k1), two,
                     {"planned body": planned_body, "body": body, "planned zmp": planned_zmp,
-                     "zmp": measured_zmp})
+                     "zmp": measured})
 
 
 def _picture(out: Path, title: str, lines: list[np.ndarray], part: slice, two: np.ndarray,

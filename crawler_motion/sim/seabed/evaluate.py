@@ -133,9 +133,9 @@ def evaluate_walk(cfg: Config, params: WalkParams, steps: int = 4,
     runs = stance_runs(phases.stance)
     contact = _contact_velocity(rec, sm.foot_radius)
     slip = np.hypot(contact[..., 0], contact[..., 1])
-    medium = medium_of(cfg, sm.settings)
-    zmp = zmp_distances(rec, phases.stance, medium.omega2(float(plan.slots[0].params.body_height)),
-                        medium.zmp_shift)
+    zmp = zmp_distances(rec, phases.stance,
+                        cfg.medium.omega2(float(plan.slots[0].params.body_height)),
+                        cfg.medium.zmp_shift)  # the medium set above, `medium_of`
     cycles = []
     for k0, k1 in steady_cycles(plan, rec.time):
         cycles.append(_cycle(rec, phases, path, rpy, runs, (contact, slip), threshold, k0, k1,

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from crawler_motion.motion.gait import WalkPlan
+from crawler_motion.motion.zmp import line_distance, zmp_of
 from crawler_motion.sim.seabed.replay import Recording
 
 
@@ -160,13 +161,9 @@ def stance_runs(stance: np.ndarray) -> list[tuple[int, int, int]]:
 ZMP_SMOOTHING = 0.02
 
 
-def zmp_distances(rec: Recording, stance: np.ndarray, omega2: float, shift: np.ndarray
-                  ) -> np.ndarray:
-    """Distance ``(n,)`` [m] of the measured zero-moment point (`motion.zmp.zmp_of` of the body
-    centre's measured horizontal motion) from the line through the two planned stance feet's
-    measured centres; NaN where the plan has not exactly two feet down."""
-    from crawler_motion.motion.zmp import line_distance, zmp_of
-
+def measured_zmp(rec: Recording, omega2: float, shift: np.ndarray) -> np.ndarray:
+    """The zero-moment point ``(n, 2)`` [m, world] of the body centre's measured horizontal
+    motion (`motion.zmp.zmp_of`; the acceleration smoothed over `ZMP_SMOOTHING`)."""
     centre = rec.base[:, :2]
     dt = float(np.median(np.diff(rec.time))) if len(rec.time) > 1 else 1.0
     width = max(1, round(ZMP_SMOOTHING / dt))
@@ -174,7 +171,14 @@ def zmp_distances(rec: Recording, stance: np.ndarray, omega2: float, shift: np.n
     velocity = np.gradient(centre, rec.time, axis=0)
     accel = np.gradient(velocity, rec.time, axis=0)
     accel = np.stack([np.convolve(accel[:, d], kernel, mode="same") for d in range(2)], axis=-1)
-    point = zmp_of(centre, accel, omega2, shift)
+    return zmp_of(centre, accel, omega2, shift)
+
+
+def zmp_distances(rec: Recording, stance: np.ndarray, omega2: float, shift: np.ndarray
+                  ) -> np.ndarray:
+    """Distance ``(n,)`` [m] of the `measured_zmp` from the line through the two planned
+    stance feet's measured centres; NaN where the plan has not exactly two feet down."""
+    point = measured_zmp(rec, omega2, shift)
     out = np.full(len(rec.time), np.nan)
     two = stance.sum(axis=1) == 2
     if not two.any():
