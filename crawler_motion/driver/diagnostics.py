@@ -89,7 +89,7 @@ class DriverDiagnostics:
         state = fb.heartbeat.state if fb.heartbeat else "unknown"
         if fb.heartbeat_time is None:
             silent = now - (link.open_time or now)
-            if silent > hb_timeout:
+            if silent > max(hb_timeout, settings.heartbeat_startup_grace):
                 errors.append(f"no heartbeat from the motor manager for {silent:.3f} s")
             else:
                 warnings.append("waiting for the first heartbeat")

@@ -56,6 +56,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               "arrival, lag of the measurement)", minimum=0.0, maximum=1.0, unit="rad"),
     ParamSpec("heartbeat_timeout_periods", 3, "heartbeat periods without a heartbeat before "
               "the manager is reported lost (ERROR)", minimum=1, maximum=100),
+    ParamSpec("heartbeat_startup_grace", 5.0, "time after the bus opens within which the "
+              "manager's first heartbeat is awaited (WARN 'waiting') before it is reported "
+              "missing (ERROR); a later loss uses heartbeat_timeout_periods", minimum=0.0,
+              maximum=60.0, unit="s"),
     ParamSpec("diagnostics_period", 1.0, "period of /diagnostics [s]", minimum=0.05,
               maximum=60.0, unit="s"),
     ParamSpec("send_retries", 2, "immediate retries of a frame the bus refused (bounded; no "
@@ -84,6 +88,7 @@ class DriverSettings:
     on_timeout: str = OnTimeout.HOLD.value
     on_deactivate: str = OnDeactivate.HOLD.value
     heartbeat_timeout_periods: int = 3
+    heartbeat_startup_grace: float = 5.0  # [s]
     step_speed_limit: float = 10.0  # [rad/s]
     step_margin: float = 0.05  # [rad]
     send_retries: int = 2

@@ -170,7 +170,8 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: Subcommands implemented in their own modules (they parse their own arguments).
+#: Subcommands implemented in their own modules (they parse their own arguments): the module's
+#: ``main``, or ``module:function``.
 _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("console", "crawler_motion.tools.console", "send gait commands/twists, follow the planner"),
     ("demo", "crawler_motion.tools.demo", "the whole stack on a virtual CAN bus, walking"),
@@ -203,6 +204,10 @@ _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
      "a recording as PNG plots and an index.html"),
     ("view", "crawler_motion.recording.view",
      "serve the running stack live to Foxglove (WebSocket)"),
+    ("sim", "crawler_motion.tools.bringup",
+     "bring the simulated robot up: simulator, controller, mapper, navigator; Ctrl-C stops"),
+    ("up", "crawler_motion.tools.bringup:main_up",
+     "bring the real robot up on its CAN bus: controller, mapper, navigator; Ctrl-C stops"),
 )
 
 
@@ -232,7 +237,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv and argv[0] in extra:
         import importlib
 
-        return int(importlib.import_module(extra[argv[0]]).main(argv[1:]) or 0)
+        module, _, function = extra[argv[0]].partition(":")
+        entry = getattr(importlib.import_module(module), function or "main")
+        return int(entry(argv[1:]) or 0)
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

@@ -726,13 +726,21 @@ def test_heartbeat_silence_is_an_error(rig):
     assert entry.level == ERROR and "heartbeat missing" in entry.message
 
 
-def test_no_heartbeat_at_all_is_an_error(proto):
-    rig = Rig(proto, sim=False)
+@pytest.mark.parametrize("grace, waited, level", [
+    (0.0, 0.29, WARN), (0.0, 0.31, ERROR),  # no grace: 3 heartbeat periods of 0.1 s
+    (5.0, 0.31, WARN), (5.0, 4.99, WARN), (5.0, 5.01, ERROR),  # start-up grace
+])
+def test_no_heartbeat_at_all_is_an_error_after_the_startup_grace(proto, grace, waited, level):
+    rig = Rig(proto, sim=False, heartbeat_startup_grace=grace)
     try:
         assert rig.entry("motor manager").level == WARN  # waiting, inactive
-        rig.clock.advance(0.31)
+        rig.clock.advance(waited)
         entry = rig.entry("motor manager")
-        assert entry.level == ERROR and "no heartbeat" in entry.message
+        assert entry.level == level, entry.message
+        if level == ERROR:
+            assert "no heartbeat" in entry.message
+        else:
+            assert "waiting for the first heartbeat" in entry.message
         assert all(e.level == STALE for e in rig.core.status() if e.name.startswith("axis"))
     finally:
         rig.close()
@@ -796,6 +804,7 @@ def test_exactly_one_of_bus_and_factory(proto):
     ("can_channel", " ", "must not be empty"),
     ("dbc_file", "", "must not be empty"),
     ("heartbeat_timeout_periods", 0, "within [1, 100]"),
+    ("heartbeat_startup_grace", -0.1, "within [0, 60]"),
     ("bogus", 1, "unknown parameter"),
 ])
 def test_validator_refuses_with_a_reason(name, value, reason):

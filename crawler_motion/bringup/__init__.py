@@ -1,0 +1,1 @@
+"""Bring-up: start, watch and stop the robot's processes together (``sim``, ``up``)."""
