@@ -12,7 +12,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "crawler_motion"
 #: Lowest layer first; a subpackage may import itself and any subpackage listed before it.
 LAYERS: tuple[str, ...] = ("errors", "model", "motion", "calibration", "canbus", "runtime",
                            "planner", "driver", "controller", "mapping", "navigation", "sim",
-                           "testing", "recording", "tools")
+                           "testing", "recording", "bringup", "tools")
 #: Modules that may import rclpy / ROS message packages: the nodes, their ROS helpers, and
 #: the tools and test stack on top; the pure core (everything else) never does.
 ROS_MODULES = {"planner/node.py", "driver/node.py", "driver/rclpy_workarounds.py",
