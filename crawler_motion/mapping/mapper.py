@@ -35,7 +35,12 @@ from enum import Enum
 import numpy as np
 
 from crawler_motion.mapping.grid import ElevationGrid, FuseResult
-from crawler_motion.mapping.obstacles import obstacle_cells, occupancy
+from crawler_motion.mapping.obstacles import (
+    face_cells,
+    obstacle_cells,
+    occupancy,
+    uncertain_cells,
+)
 from crawler_motion.mapping.odometry import OdometryGate, OdometryLimits, OdometryVerdict
 from crawler_motion.mapping.points import Mount, NoiseModel, returns_in_map
 from crawler_motion.model.rotations import slerp_rotation
@@ -119,8 +124,7 @@ class TerrainMapper:
 
     def __init__(self, settings: MapperSettings, mount: Mount) -> None:
         self.settings, self.mount = settings, mount
-        self.grid = ElevationGrid(settings.resolution, settings.cells, settings.gate,
-                                  settings.drift)
+        self.grid = self._new_grid()
         self.skipped: Counter[SkipReason] = Counter()
         self.scans_fused = 0
         self.last_fuse: FuseResult | None = None
@@ -162,12 +166,15 @@ class TerrainMapper:
 
     def _clear(self) -> None:
         """Forget the map, the odometry and the held scans (a new odometry stream)."""
-        s = self.settings
-        self.grid = ElevationGrid(s.resolution, s.cells, s.gate, s.drift)
+        self.grid = self._new_grid()
         self._poses.clear()
         self.skipped[SkipReason.ODOMETRY_RESET] += len(self._held)
         self._held.clear()
         self._last_position = None
+
+    def _new_grid(self) -> ElevationGrid:
+        s = self.settings
+        return ElevationGrid(s.resolution, s.cells, s.gate, s.drift, step=s.obstacle_height)
 
     def _keep(self, pose: Pose) -> None:
         """Append an accepted pose and fuse the held scans it reaches."""
@@ -247,9 +254,17 @@ class TerrainMapper:
     def obstacles(self) -> np.ndarray:
         """Obstacle cells ``(rows y, cols x)`` by the rule of `obstacles`."""
         s, g = self.settings, self.grid
-        return obstacle_cells(g.height, g.known, s.obstacle_height,
-                              round(s.ground_radius / s.resolution), g.variance, s.confidence)
+        return obstacle_cells(g.height, g.known, s.obstacle_height, self._radius_cells,
+                              g.variance, s.confidence, face_cells(g.far, g.returns))
+
+    @property
+    def _radius_cells(self) -> int:
+        return round(self.settings.ground_radius / self.settings.resolution)
 
     def occupancy(self) -> np.ndarray:
-        """OccupancyGrid data (int8, rows y): 100 obstacle, 0 free, -1 unknown."""
-        return occupancy(self.grid.known, self.obstacles())
+        """OccupancyGrid data (int8, rows y): 100 obstacle, 0 free, -1 unknown (or above the
+        threshold without the confidence margin: never free)."""
+        g, obstacle = self.grid, self.obstacles()
+        uncertain = uncertain_cells(g.height, g.known, self.settings.obstacle_height,
+                                    self._radius_cells, obstacle)
+        return occupancy(g.known, obstacle, uncertain)

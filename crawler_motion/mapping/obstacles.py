@@ -7,8 +7,16 @@ and its faces), not only its edges as the neighbour-step rule would, as long as 
 reaches ground beside it. The threshold for the crawler is the smaller of its foot clearance
 (lift + arc) and its belly clearance (`step_threshold`). A cell must also clear the
 threshold by ``confidence`` standard deviations of its fused height, so a cell seen once
-through a pose error is not an obstacle until more returns agree. Unknown cells are neither
-free nor obstacle.
+through a pose error is not an obstacle until more returns agree.
+
+A face is an obstacle too (`face_cells`): a known cell with at least ``FACE_MIN_RETURNS``
+returns, and at least ``FACE_SHARE`` of all its returns, more than ``threshold`` from its
+estimate (`grid.ElevationGrid.far`) holds a step the crawler cannot take within one cell,
+whatever its fused height (the mean of its foot and its top) says. Gated returns inflate a
+face cell's variance, so the height rule alone fails there.
+
+Occupancy: 100 obstacle; -1 unknown, which includes a known cell that is above the threshold
+but not by the confidence margin (`uncertain_cells`: never called free); 0 free.
 """
 
 from __future__ import annotations
@@ -18,6 +26,10 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from crawler_motion.model.config import Config
 
+#: A face needs this many returns far from the cell's estimate (one or two strays are not)...
+FACE_MIN_RETURNS = 3
+#: ... and this share of all the cell's returns.
+FACE_SHARE = 0.1
 #: Half the hull height [m] (the hull box of the seabed model is 0.05 m high).
 HULL_HALF_HEIGHT = 0.025
 
@@ -41,20 +53,45 @@ def local_ground(height: np.ndarray, known: np.ndarray, radius_cells: int) -> np
     return sliding_window_view(padded, k, axis=1).min(axis=-1)
 
 
+def above_ground(height: np.ndarray, known: np.ndarray, radius_cells: int) -> np.ndarray:
+    """Height of every known cell above its local ground [m] (-inf where unknown)."""
+    rise = height - local_ground(height, known, radius_cells)
+    return np.where(known, rise, -np.inf)
+
+
 def obstacle_cells(height: np.ndarray, known: np.ndarray, threshold: float,
                    radius_cells: int, variance: np.ndarray | None = None,
-                   confidence: float = 0.0) -> np.ndarray:
+                   confidence: float = 0.0, face: np.ndarray | None = None) -> np.ndarray:
     """Boolean ``(rows, cols)``: known cells higher than their local ground by more than
-    ``threshold + confidence × σ_h`` (σ_h from ``variance``; 0 without it)."""
-    ground = local_ground(height, known, radius_cells)
+    ``threshold + confidence × σ_h`` (σ_h from ``variance``; 0 without it), or faces
+    (``face``, from `face_cells`)."""
     margin = threshold if variance is None else threshold + confidence * np.sqrt(
         np.where(known, variance, 0.0))
-    return known & (height - ground > margin)
+    obstacle = known & (above_ground(height, known, radius_cells) > margin)
+    if face is not None:
+        obstacle |= known & face
+    return obstacle
 
 
-def occupancy(known: np.ndarray, obstacle: np.ndarray) -> np.ndarray:
-    """OccupancyGrid values (int8): 100 obstacle, 0 free, -1 unknown."""
+def face_cells(far: np.ndarray, returns: np.ndarray) -> np.ndarray:
+    """Cells whose returns disagree: ``far`` returns (more than the threshold from the cell's
+    estimate) at least `FACE_MIN_RETURNS` and `FACE_SHARE` of ``returns``."""
+    return (far >= FACE_MIN_RETURNS) & (far >= FACE_SHARE * returns)
+
+
+def uncertain_cells(height: np.ndarray, known: np.ndarray, threshold: float,
+                    radius_cells: int, obstacle: np.ndarray) -> np.ndarray:
+    """Known cells that are not obstacles but above the threshold (not by the confidence
+    margin): published as unknown, never free."""
+    return ~obstacle & (above_ground(height, known, radius_cells) > threshold)
+
+
+def occupancy(known: np.ndarray, obstacle: np.ndarray,
+              uncertain: np.ndarray | None = None) -> np.ndarray:
+    """OccupancyGrid values (int8): 100 obstacle, 0 free, -1 unknown (and ``uncertain``)."""
     out = np.full(known.shape, -1, dtype=np.int8)
     out[known] = 0
+    if uncertain is not None:
+        out[uncertain] = -1
     out[obstacle] = 100
     return out

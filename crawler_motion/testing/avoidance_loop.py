@@ -65,10 +65,9 @@ class LoopResult:
 
 
 def terrain_view(mapper: TerrainMapper) -> TerrainView:
-    """The navigator's view of the mapper's grid."""
-    g = mapper.grid
-    return TerrainView(g.origin.copy(), g.resolution, g.known.copy(), mapper.obstacles(),
-                       g.height.copy())
+    """The navigator's view of the mapper's grid, as the published terrain_map shows it."""
+    g, data = mapper.grid, mapper.occupancy()
+    return TerrainView(g.origin.copy(), g.resolution, data >= 0, data >= 100, g.height.copy())
 
 
 def circle_clearance(view: TerrainView, x: float, y: float, radius: float) -> float:
