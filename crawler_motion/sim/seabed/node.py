@@ -40,6 +40,8 @@ SENSOR_PERIOD = 0.01  # imu period [s]; odom every second one
 SCAN_POLL_PERIOD = 0.02  # [s]
 DIAGNOSTICS_PERIOD = 1.0  # [s]
 HARDWARE_ID = "seabed_sim"
+#: Diagnostics key of the count of manager ticks with the hull or a leg link in contact.
+BODY_CONTACTS_KEY = "hull or leg contact ticks"
 FRAME_ODOM, FRAME_BASE, FRAME_SCANNER = "odom", "base_link", "scanner_link"
 
 
@@ -182,7 +184,8 @@ class SeabedSimNode(Node):
             message=failure or "running")
         status.values = [KeyValue(key="simulated time [s]", value=f"{plant.sample().time:.3f}"),
                          KeyValue(key="physics steps", value=str(plant.steps)),
-                         KeyValue(key="manager state", value=str(manager.state))]
+                         KeyValue(key="manager state", value=str(manager.state)),
+                         KeyValue(key=BODY_CONTACTS_KEY, value=str(plant.body_contacts))]
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
         self._diag.publish(msg)

@@ -12,6 +12,7 @@ import numpy as np
 
 from crawler_motion.canbus.protocol import MotorProtocol
 from crawler_motion.sim.seabed.model import IMU_SENSORS, SeabedModel
+from crawler_motion.sim.seabed.contacts import body_contact
 from crawler_motion.sim.seabed.scanner import RangeScanner
 from crawler_motion.sim.seabed.water import check_range
 
@@ -100,6 +101,9 @@ class SeabedPlant:
         self.data = sm.make_data()
         self.failure: str | None = None
         self.steps = 0  # physics steps taken
+        #: Advances (manager ticks) that ended with the hull or a leg link (not a foot)
+        #: touching the world: a collision with an obstacle or the seabed.
+        self.body_contacts = 0
         self._lock = threading.Lock()
         self._rng = np.random.default_rng(self.settings.seed)
         self._carry = 0.0  # [s] not yet stepped
@@ -136,6 +140,8 @@ class SeabedPlant:
             self.failure = reason
             return self._pos.copy()
         self._pos = self.protocol.to_axis(self.data.qpos[self.sm.qpos_index])
+        if body_contact(self.sm, self.data):
+            self.body_contacts += 1
         sample = self._measure()
         scan = self._scan_if_due()
         self._keep_snapshot()

@@ -1,0 +1,207 @@
+"""Navigation on the real-time stack: ``crawler-motion sim``'s processes, a goal or a follow
+command, and what a user would measure (the walked path from ``odom``, the final
+``terrain_map``, the simulator's hull-or-leg contact count, CPU per process).
+
+`LiveNav` needs ``rclpy.init`` first. It brings the stack up with the bring-up's lineup and
+supervisor (every process in real time, CAN at the bus rate), stands the robot, and runs
+`goto` or `follow` through the navigator's public topics, as the console does.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from crawler_motion.bringup.lineup import BringUpOptions, lineup
+from crawler_motion.bringup.supervisor import Supervisor
+from crawler_motion.testing.bus import BusSpec
+from crawler_motion.testing.stack import isolated_env
+from crawler_motion.tools.procstat import cpu_seconds
+
+#: Navigation states that end a goal or a follow.
+FINAL = ("ARRIVED", "FAILED", "IDLE")
+#: Diagnostics key of the simulator's contact count (`sim.seabed.node.BODY_CONTACTS_KEY`).
+CONTACTS_KEY = "hull or leg contact ticks"
+
+
+@dataclass
+class LiveResult:
+    """One run: outcome and reason, the body path ``(k, 3)`` (t [s], x, y [m]), the final map
+    (``data`` rows y, origin [m], resolution [m]), contact ticks and CPU % of one core by
+    process over the run."""
+
+    state: str = ""
+    reason: str = ""
+    path: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    map_data: np.ndarray | None = None
+    map_origin: tuple[float, float] = (0.0, 0.0)
+    map_resolution: float = 0.05
+    contacts: int = 0
+    cpu: dict[str, float] = field(default_factory=dict)
+    duration: float = 0.0
+
+    def cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """x and y [m] of every map cell's centre."""
+        assert self.map_data is not None
+        rows, cols = self.map_data.shape
+        x = self.map_origin[0] + (np.arange(cols) + 0.5) * self.map_resolution
+        y = self.map_origin[1] + (np.arange(rows) + 0.5) * self.map_resolution
+        return np.meshgrid(x, y)
+
+
+class _Watch:
+    """Subscriptions of the run: odom path, terrain_map, navigation_status, contacts."""
+
+    def __init__(self, node: Any) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
+        from nav_msgs.msg import OccupancyGrid, Odometry
+        from rclpy.qos import DurabilityPolicy, QoSProfile
+        from std_msgs.msg import String
+
+        self.lock = threading.Lock()
+        self.path: list[tuple[float, float, float]] = []
+        self.grid: Any = None
+        self.status: dict[str, Any] = {}
+        self.contacts = 0
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        node.create_subscription(Odometry, "odom", self._odom, 10)
+        node.create_subscription(OccupancyGrid, "terrain_map", self._map, 2)
+        node.create_subscription(String, "navigation_status", self._status, latched)
+        node.create_subscription(DiagnosticArray, "/diagnostics", self._diag, 10)
+
+    def _odom(self, msg: Any) -> None:
+        p = msg.pose.pose.position
+        with self.lock:
+            self.path.append((time.monotonic(), p.x, p.y))
+
+    def _map(self, msg: Any) -> None:
+        self.grid = msg
+
+    def _status(self, msg: Any) -> None:
+        try:
+            self.status = json.loads(msg.data)
+        except ValueError:
+            pass
+
+    def _diag(self, msg: Any) -> None:
+        for status in msg.status:
+            for kv in status.values:
+                if kv.key == CONTACTS_KEY:
+                    self.contacts = int(kv.value)
+
+
+class LiveNav:
+    """The simulated robot's whole stack in real time, driven by goals and follow commands."""
+
+    def __init__(self, logs: Path, world: str,
+                 start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 params: Mapping[str, Mapping[str, Any]] | None = None) -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+
+        extra = {k: dict(v) for k, v in (params or {}).items()}
+        extra.setdefault("seabed_sim", {})["start_pose"] = [float(v) for v in start_pose]
+        self.options = BringUpOptions(world=world, bus=BusSpec.fresh(), extra=extra)
+        self.env = isolated_env()  # this process's ROS domain: its graph shows the nodes
+        self.node = rclpy.create_node("live_nav_watch")
+        self.watch = _Watch(self.node)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        self._spin = threading.Thread(target=self.executor.spin, daemon=True)
+        self.sup = Supervisor(logs, self.env, self._ready)
+
+    def _ready(self, nodes: Any) -> bool:
+        seen = set(self.node.get_node_names_and_namespaces())
+        return all((name, "/") in seen for name in nodes)
+
+    def start(self, timeout: float = 60.0) -> None:
+        """Bring the stack up and stand the robot (`RuntimeError` with the logs if not)."""
+        self._spin.start()
+        self.sup.start(lineup(self.options), timeout, lambda *_: None)
+        from crawler_motion.tools.console import Console
+
+        console = Console("live_nav_console")
+        console.printer = lambda _line: None
+        try:
+            if not console.connect(30.0):
+                raise RuntimeError(f"no planner\n{self.tails()}")
+            ok, message = console.run_when_ready({"command": "stand"}, 30.0, retry_for=30.0)
+            if not ok:
+                raise RuntimeError(f"stand: {message}\n{self.tails()}")
+        finally:
+            console.close()
+
+    def tails(self) -> str:
+        """The last log lines of every process."""
+        return "\n".join(f"--- {n} ---\n" + "\n".join(self.sup.tail(n, 15))
+                         for n in self.sup.procs)
+
+    def goto(self, x: float, y: float, timeout: float) -> LiveResult:
+        """Send a goal in ``odom`` and wait for its end."""
+        from geometry_msgs.msg import PoseStamped
+
+        msg = PoseStamped()
+        msg.header.frame_id = "odom"
+        msg.pose.position.x, msg.pose.position.y = float(x), float(y)
+        msg.pose.orientation.w = 1.0
+        pub = self.node.create_publisher(PoseStamped, "goal_pose", 10)
+        return self._run(lambda: pub.publish(msg), timeout)
+
+    def follow(self, length: float, side: str, timeout: float) -> LiveResult:
+        """Send a follow command (navigator method ``apf``) and wait for its end."""
+        from std_msgs.msg import String
+
+        pub = self.node.create_publisher(String, "follow_command", 10)
+        text = json.dumps({"length": float(length), "side": side})
+        return self._run(lambda: pub.publish(String(data=text)), timeout)
+
+    def _run(self, send: Any, timeout: float) -> LiveResult:
+        w = self.watch
+        time.sleep(0.5)  # publisher matched
+        cpu0 = {n: cpu_seconds(p.pid) for n, p in self.sup.procs.items()}
+        began = time.monotonic()
+        with w.lock:
+            w.path.clear()
+        send()
+        end = began + timeout
+        while time.monotonic() < end:
+            if w.status.get("state") == "ACTIVE":
+                break
+            time.sleep(0.05)
+        while time.monotonic() < end and w.status.get("state") not in FINAL:
+            if self.sup.exited() is not None:
+                break
+            time.sleep(0.1)
+        wall = time.monotonic() - began
+        cpu = {n: 100.0 * ((cpu_seconds(p.pid) or 0.0) - (cpu0[n] or 0.0)) / wall
+               for n, p in self.sup.procs.items()}
+        time.sleep(1.5)  # the map after the stop
+        return self._result(wall, cpu)
+
+    def _result(self, wall: float, cpu: dict[str, float]) -> LiveResult:
+        w = self.watch
+        res = LiveResult(state=str(w.status.get("state")), reason=str(w.status.get("reason")),
+                         contacts=w.contacts, cpu=cpu, duration=wall)
+        with w.lock:
+            res.path = np.array(w.path) if w.path else np.zeros((0, 3))
+        grid = w.grid
+        if grid is not None:
+            info = grid.info
+            res.map_data = np.asarray(grid.data, dtype=np.int16).reshape(info.height,
+                                                                         info.width)
+            res.map_origin = (info.origin.position.x, info.origin.position.y)
+            res.map_resolution = float(info.resolution)
+        return res
+
+    def close(self) -> None:
+        """Stop every process and the watch node."""
+        self.sup.stop()
+        self.executor.shutdown()
+        self.node.destroy_node()
