@@ -8,10 +8,12 @@ frame or as ``R^T (p - t)`` in the tracker's, ``(R, t)`` being the tracker's pos
 
 Identifiability (`layout`): each leg identifies its 15 parameters (`jacobian.identifiable_set`).
 With the tracker's pose free, a rigid motion of the tracker together with the same motion of
-every leg's root gives the same readings (6 directions): base_link is then defined by the
-first measured leg's root (its ``DATUM`` parameters are fixed, and printed with the reason).
-Poses that leave any unknown unidentifiable (scaled Jacobian's rank below the count) are
-refused, naming the parameter the null direction moves most.
+every leg's root gives the same readings (6 directions): base_link is then defined as the frame
+in which the measured legs' root errors (their ``DATUM`` parameters) have no common rigid
+motion, six linear constraints ``C b = 0`` (`gauge_constraints`; least squares, angles
+weighted by the leg's reach). The legs' root parameters are identified in the null space of
+``C``. Poses that leave any unknown unidentifiable (scaled Jacobian's rank below the count)
+are refused, naming the parameter the null direction moves most.
 
 Bad readings (`robust_fit`): IRLS with a Huber weight on each row's residual norm (threshold
 `HUBER` robust sigmas; sigma from the median residual norm, the median of a 3-D Gaussian's
@@ -57,19 +59,22 @@ FLOOR = 1e-6
 @dataclass(frozen=True)
 class Layout:
     """The session's unknowns: per measured leg its identified parameter indices, whether the
-    tracker pose is free, and each fixed parameter ("leg.name") with its reason."""
+    tracker pose is free, each fixed parameter ("leg.name") with its reason, and ``basis``
+    ``(natural, size)``: the natural step (tracker, then every leg's columns) is
+    ``basis @ unknowns`` (the gauge's null space; the identity without a tracker)."""
 
     columns: dict[int, tuple[int, ...]]
     tracker: bool
     fixed: dict[str, str]
+    basis: np.ndarray
 
     @property
     def size(self) -> int:
         """Number of unknowns."""
-        return 6 * self.tracker + sum(len(c) for c in self.columns.values())
+        return int(self.basis.shape[1])
 
     def names(self, robot: RobotConfig) -> list[str]:
-        """Unknowns' names in state order ("tracker_*", then "leg.param")."""
+        """Natural unknowns' names in step order ("tracker_*", then "leg.param")."""
         legs = [f"{robot.legs[leg]}.{NAMES[k]}" for leg, cols in self.columns.items()
                 for k in cols]
         return [*TRACKER, *legs] if self.tracker else legs
@@ -85,33 +90,63 @@ class State:
     translation: np.ndarray
 
 
+def gauge_constraints(robot: RobotConfig, legs: tuple[int, ...]) -> np.ndarray:
+    """``C`` ``(6, 6 len(legs))``: row-wise, the legs' `DATUM` parameters ``b`` (stacked) with
+    ``C b = 0`` have no common rigid motion. A body twist (w, v) changes a leg's ``b`` by
+    ``A (w, v)`` (leg frame: hip by ``v + w x hip``, axis angles by ``w``); ``C`` stacks
+    ``A^T W``, ``W`` weighting angles by the squared reach l1 + l2 + l3."""
+    reach = robot.l1 + robot.l2 + robot.l3
+    weight = np.diag([1.0, 1.0, 1.0, reach ** 2, reach ** 2, reach ** 2])
+    blocks = []
+    for leg in legs:
+        yaw = float(robot.neutral_yaw[leg])
+        rot_t = rotation_vector_matrix(np.array([0.0, 0.0, -yaw]))
+        h = np.asarray(robot.hips[leg], dtype=float)
+        hx = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
+        a = np.block([[-rot_t @ hx, rot_t], [rot_t, np.zeros((3, 3))]])
+        blocks.append(a.T @ weight)
+    return np.hstack(blocks)
+
+
+def _basis(robot: RobotConfig, columns: dict[int, tuple[int, ...]]) -> np.ndarray:
+    """The gauge's null-space basis over the natural step (tracker 6, then leg columns)."""
+    natural = 6 + sum(len(c) for c in columns.values())
+    select = np.zeros((6 * len(columns), natural))
+    col, row = 6, 0
+    for cols in columns.values():
+        for name in DATUM:
+            select[row, col + cols.index(INDEX[name])] = 1.0
+            row += 1
+        col += len(cols)
+    constraint = gauge_constraints(robot, tuple(columns)) @ select
+    _, _, vt = np.linalg.svd(constraint)
+    return vt[6:].T
+
+
 def layout(robot: RobotConfig, readings: Readings, start: np.ndarray, tracker: bool) -> Layout:
     """The unknowns for ``readings`` from the ``start`` geometry (structural rank per leg at
     200 poses spread over the joint limits)."""
     spread = np.random.default_rng(0).uniform(robot.lower, robot.upper, (200, 3))
     columns, fixed = {}, {}
-    legs = readings.measured_legs()
-    for n, leg in enumerate(legs):
+    for leg in readings.measured_legs():
         ident = identifiable_set(stacked_jacobian(robot, leg, start[leg], spread))
-        cols = list(ident.columns)
+        columns[leg] = ident.columns
         fixed.update({f"{robot.legs[leg]}.{k}": v for k, v in ident.fixed.items()})
-        if tracker and n == 0:
-            for name in DATUM:
-                cols.remove(INDEX[name])
-                fixed[f"{robot.legs[leg]}.{name}"] = (
-                    "same motion as the tracker pose; base_link is defined by this leg's root "
-                    "axis and zero")
-        columns[leg] = tuple(cols)
-    return Layout(columns, tracker, fixed)
+    if not tracker:
+        return Layout(columns, False, fixed, np.eye(sum(len(c) for c in columns.values())))
+    fixed["6 combinations of " + ", ".join(DATUM)] = (
+        "with the tracker's pose free, a common rigid motion of every root is the same motion "
+        "as the tracker's; base_link is the frame in which the roots' errors have none")
+    return Layout(columns, True, fixed, _basis(robot, columns))
 
 
 def predict(robot: RobotConfig, readings: Readings, state: State, offset: np.ndarray,
             lay: Layout) -> tuple[np.ndarray, np.ndarray]:
     """Predicted readings ``(M, 3)`` [m] and their Jacobian ``(3 M, lay.size)`` w.r.t. the
-    unknowns (rows x, y, z of reading 0, then 1, ...)."""
+    unknowns (rows x, y, z of reading 0, then 1, ...; natural Jacobian times ``lay.basis``)."""
     m = len(readings.q)
     body = np.empty((m, 3))
-    jac = np.zeros((m, 3, lay.size))
+    jac = np.zeros((m, 3, lay.basis.shape[0]))
     col = 6 * lay.tracker
     for leg, cols in lay.columns.items():
         rows = readings.legs == leg
@@ -122,7 +157,7 @@ def predict(robot: RobotConfig, readings: Readings, state: State, offset: np.nda
         jac[rows, :, col:col + len(cols)] = j.reshape(-1, 3, len(cols))
         col += len(cols)
     if not lay.tracker:
-        return body, jac.reshape(3 * m, -1)
+        return body, jac.reshape(3 * m, -1) @ lay.basis
     rot_t = state.rotation.T
     local = (body - state.translation) @ rot_t.T
     jac[:, :, 6:] = np.einsum("ij,mjk->mik", rot_t, jac[:, :, 6:])
@@ -130,10 +165,11 @@ def predict(robot: RobotConfig, readings: Readings, state: State, offset: np.nda
     skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -local[:, 2], local[:, 1], -local[:, 0]
     jac[:, :, :3] = skew - np.swapaxes(skew, 1, 2)
     jac[:, :, 3:6] = -rot_t
-    return local, jac.reshape(3 * m, -1)
+    return local, jac.reshape(3 * m, -1) @ lay.basis
 
 
-def _apply(state: State, lay: Layout, step: np.ndarray) -> State:
+def _apply(state: State, lay: Layout, unknowns: np.ndarray) -> State:
+    step = lay.basis @ unknowns
     params = state.params.copy()
     col = 6 * lay.tracker
     for leg, cols in lay.columns.items():
@@ -214,7 +250,8 @@ def check_identifiable(robot: RobotConfig, jac: np.ndarray, lay: Layout) -> floa
     _, s, vt = np.linalg.svd(jac / column_scale(jac), full_matrices=False)
     if s[-1] <= RANK_TOL * s[0]:
         rank = int(np.sum(s > RANK_TOL * s[0]))
-        name = lay.names(robot)[int(np.argmax(np.abs(vt[-1])))]
+        null = lay.basis @ (vt[-1] / column_scale(jac)) if lay.tracker else vt[-1]
+        name = lay.names(robot)[int(np.argmax(np.abs(null)))]
         raise CalibrationError(f"the poses leave {name} unidentifiable (rank {rank} of "
                                f"{lay.size} unknowns): measure poses spread over every joint's "
                                f"range")
