@@ -280,6 +280,12 @@ def robust_fit(robot: RobotConfig, readings: Readings, start: np.ndarray, offset
                tracker: bool, floor: float = FLOOR) -> SessionFit:
     """Identify the session from ``start`` (see the module docstring for the rule)."""
     lay = layout(robot, readings, start, tracker)
+    for leg, cols in lay.columns.items():
+        count, need = int(np.sum(readings.legs == leg)), -(-len(cols) // 3)
+        if count < need:
+            raise CalibrationError(f"leg {robot.legs[leg]}: {count} poses, fewer than its "
+                                   f"{len(cols)} identifiable parameters need ({need} poses of "
+                                   f"3 coordinates each)")
     state = start_state(robot, readings, start, offset, tracker)
     condition = check_identifiable(robot, predict(robot, readings, state, offset, lay)[1], lay)
     weights = np.ones(len(readings.q))
@@ -313,15 +319,16 @@ def rms_per_axis(norms: np.ndarray) -> float:
 MAX_OUTLIER_FRACTION = 0.2
 
 
-def check_fit(fit: SessionFit, readings: Readings, max_sigma: float, where: str) -> None:
-    """`CalibrationError` naming the worst reading when ``fit`` does not describe the session:
-    too many outliers or a robust noise sigma above ``max_sigma`` [m] per axis."""
+def check_fit(fit: SessionFit, readings: Readings, max_sigma: float, where: str,
+              label: str = "line") -> None:
+    """`CalibrationError` naming the worst reading (``label`` and its number) when ``fit`` does
+    not describe the session: too many outliers or a robust sigma above ``max_sigma`` [m]."""
     worst = int(np.argmax(fit.residuals))
-    line = int(readings.lines[worst])
+    line = f"{label} {int(readings.lines[worst])}"
     count = int(np.sum(fit.outliers))
     if count > MAX_OUTLIER_FRACTION * len(fit.outliers) or fit.sigma > max_sigma:
         raise CalibrationError(
-            f"{where} line {line}: the readings do not fit one model (residual "
+            f"{where} {line}: the readings do not fit one model (residual "
             f"{fit.residuals[worst] * 1e3:.3g} mm; {count} of {len(fit.outliers)} rows beyond "
             f"{REJECT:g} sigma; sigma {fit.sigma * 1e3:.3g} mm per axis, bound "
             f"{max_sigma * 1e3:.3g} mm): wrong --frame, a tracker moved during the session or "

@@ -38,7 +38,8 @@ def test_simulate_identify_fk_loop(tmp_path: Path, capsys: pytest.CaptureFixture
     (POSES.replace("\n", "\nabc,1,2\n", 2), None, "lf", "not a number"),
     (POSES.replace("\n", "\nnan,1,2\n", 2), None, "lf", "NaN"),
     ("q_root,q_shoulder,q_knee\n0.0,0.0,2.7\n", None, "lf", "outside the joint limits"),
-    ("q_root,q_shoulder,q_knee\n0,0,1\n0.1,0.2,1.1\n", "x,y,z\n0,0,0\n0,0,0\n", "lf", "rank"),
+    ("q_root,q_shoulder,q_knee\n0,0,1\n0.1,0.2,1.1\n", "x,y,z\n0,0,0\n0,0,0\n", "lf",
+     "2 poses, fewer than its 15"),
     (POSES, None, "zz", "does not exist"),
 ])
 def test_bad_input_one_line_exit_1_nothing_written(
