@@ -227,6 +227,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         robot = with_calibration(load_config(args.config).robot,
                                  getattr(args, "calibration", None))
+        if robot.geometry is not None and robot.geometry.note:
+            print(f"{PROG}: note: {robot.geometry.note}", file=sys.stderr)
         return {"poses": cmd_poses, "identify": cmd_identify,
                 "simulate": cmd_simulate, "report": cmd_report}[args.action](args, robot)
     except (CrawlerMotionError, OSError) as exc:
