@@ -12,6 +12,7 @@ import math
 import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,9 +20,11 @@ import pytest
 from crawler_motion.calibration import session
 from crawler_motion.calibration.readings import Readings
 from crawler_motion.errors import CalibrationError
+from crawler_motion.model.calibration_file import nominal_calibration, write_calibration
 from crawler_motion.model.config import load_config
 from crawler_motion.model.leg_geometry import nominal_params
 from crawler_motion.model.urdf import generate_urdf
+from crawler_motion.tools import cli
 
 ROBOT = load_config().robot
 NOMINAL = np.tile(nominal_params(ROBOT.l1, ROBOT.l2, ROBOT.l3), (ROBOT.n_legs, 1))
@@ -74,8 +77,9 @@ class UrdfLeg:
         return np.array([self.frames(row)[3][:3, 3] for row in q])
 
 
-def urdf_legs() -> dict[str, UrdfLeg]:
-    root = ET.fromstring(generate_urdf(ROBOT))
+def urdf_legs(text: str | None = None) -> dict[str, UrdfLeg]:
+    """The legs of the URDF ``text`` (default: the nominal robot's)."""
+    root = ET.fromstring(text if text is not None else generate_urdf(ROBOT))
     legs = {}
     for leg in ROBOT.legs:
         joints = [root.find(f"joint[@name='{leg}_{kind}_joint']") for kind in KINDS]
@@ -303,3 +307,23 @@ def test_a_session_that_fits_no_single_tracker_pose_is_refused() -> None:
         session.check_fit(fit, both, 1e-4, "m.csv")
     good = session.robust_fit(ROBOT, parts[0], NOMINAL, np.zeros(3), tracker=True)
     session.check_fit(good, parts[0], 1e-4, "m.csv")
+
+
+def test_urdf_of_the_identified_legs_is_the_true_robot(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """``crawler-motion urdf --calibration FILE`` of the identified legs, evaluated here like
+    the truth, puts every foot where the perturbed URDF does (noise-free readings)."""
+    rng = np.random.default_rng(77)
+    truth = perturbed(rng)
+    fit = session.robust_fit(ROBOT, readings_of(truth, (0, 1, 2, 3), 50, rng, 0.0), NOMINAL,
+                             np.zeros(3), tracker=False)
+    calib = nominal_calibration(ROBOT.legs, (ROBOT.l1, ROBOT.l2, ROBOT.l3))
+    for leg in range(ROBOT.n_legs):
+        calib = calib.with_leg(ROBOT.legs[leg], fit.state.params[leg])
+    write_calibration(tmp_path / "legs.yaml", calib)
+    capsys.readouterr()
+    assert cli.main(["urdf", "--calibration", str(tmp_path / "legs.yaml")]) == 0
+    identified = urdf_legs(capsys.readouterr().out)
+    q = _poses(rng, 100)
+    for leg in ROBOT.legs:
+        assert np.abs(identified[leg].feet(q) - truth[leg].feet(q)).max() < 1e-9
