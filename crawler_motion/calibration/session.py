@@ -18,8 +18,10 @@ are refused, naming the parameter the null direction moves most.
 Bad readings (`robust_fit`): IRLS with a Huber weight on each row's residual norm (threshold
 `HUBER` robust sigmas; sigma from the median residual norm, the median of a 3-D Gaussian's
 norm being `MAXWELL_MEDIAN` sigma, at least ``floor``), then a row whose residual exceeds
-`REJECT` sigmas is an outlier (a good row's chance: 1.4e-5), excluded, and the rest refitted by
-plain least squares; repeated until the outlier set no longer changes.
+`REJECT` sigmas is an outlier, excluded, and the rest refitted by plain least squares, sigma
+now the inliers' RMS residual per degree of freedom (at least ``floor``); repeated until the
+outlier set no longer changes. A good row's chance of exceeding 6 sigma: P(chi2_3 > 36) =
+7e-8.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ TRACKER = ("tracker_rx", "tracker_ry", "tracker_rz", "tracker_x", "tracker_y", "
 DATUM = ("hip_x", "hip_y", "hip_z", "root_tilt_x", "root_tilt_y", "root_offset")
 TIP = (INDEX["l3"], INDEX["foot_y"], INDEX["foot_z"])
 HUBER = 3.0
-REJECT = 5.0
+REJECT = 6.0
 MAXWELL_MEDIAN = 1.5382
 IRLS_ROUNDS = 8
 GN_MAX = 40
@@ -299,7 +301,8 @@ def robust_fit(robot: RobotConfig, readings: Readings, start: np.ndarray, offset
         inliers = readings.subset(~outliers)
         state = gauss_newton(robot, inliers, state, offset, lay, np.ones(len(inliers.q)))
         norms = residual_norms(robot, readings, state, offset, lay)
-        sigma = sigma_of(norms[~outliers], floor)
+        dof = max(3 * int(np.sum(~outliers)) - lay.size, 1)
+        sigma = max(math.sqrt(float(np.sum(norms[~outliers] ** 2)) / dof), floor)
         again = norms > REJECT * sigma
         if np.array_equal(again, outliers):
             break
