@@ -261,21 +261,29 @@ def test_tracker_frame_identifies_the_tracker_pose_with_every_leg(noise: float,
 
 
 def test_outliers_are_flagged_by_row_and_do_not_move_the_result() -> None:
-    rng = np.random.default_rng(42)
-    truth = perturbed(rng)
-    clean = readings_of(truth, (2,), 50, rng, 2e-5)
-    bad_rows = np.array([4, 17, 33])
-    points = clean.points.copy()
-    for row, size in zip(bad_rows, (5e-3, 20e-3, 50e-3), strict=True):
-        direction = rng.normal(size=3)
-        points[row] += size * direction / np.linalg.norm(direction)
-    dirty = Readings(clean.legs, clean.q, points, clean.lines)
-    results = []
-    for readings in (clean, dirty):
-        fit = session.robust_fit(ROBOT, readings, NOMINAL, np.zeros(3), tracker=False)
-        results.append(validate(fit.state, truth, (2,), np.random.default_rng(0))[0].mean())
-    assert list(dirty.lines[fit.outliers]) == list(bad_rows + 2)
-    assert results[1] <= 1.1 * results[0]
+    """3 readings of 50 moved by 5-50 mm: exactly those rows flagged; the validation error
+    within 10 % of the outlier-free identification's (``DRAWS`` robots, 0.02 mm noise)."""
+    ratios = []
+    for draw in range(DRAWS):
+        rng = np.random.default_rng(42 + draw)
+        truth = perturbed(rng)
+        clean = readings_of(truth, (draw % ROBOT.n_legs,), 50, rng, 2e-5)
+        bad_rows = np.sort(rng.choice(50, 3, replace=False))
+        points = clean.points.copy()
+        for row, size in zip(bad_rows, rng.uniform(5e-3, 50e-3, 3), strict=True):
+            direction = rng.normal(size=3)
+            points[row] += size * direction / np.linalg.norm(direction)
+        dirty = Readings(clean.legs, clean.q, points, clean.lines)
+        results = []
+        for readings in (clean, dirty):
+            fit = session.robust_fit(ROBOT, readings, NOMINAL, np.zeros(3), tracker=False)
+            results.append(validate(fit.state, truth, (draw % ROBOT.n_legs,),
+                                    np.random.default_rng(0))[0].mean())
+        assert list(dirty.lines[fit.outliers]) == list(bad_rows + 2)
+        ratios.append(results[1] / results[0])
+    print(f"\noutliers, {DRAWS} draws: validation mean with / without them: "
+          f"{_report('ratio', ratios)}")
+    assert max(ratios) <= 1.1
 
 
 @pytest.mark.parametrize(("poses", "message"), [
