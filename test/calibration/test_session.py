@@ -261,29 +261,34 @@ def test_tracker_frame_identifies_the_tracker_pose_with_every_leg(noise: float,
 
 
 def test_outliers_are_flagged_by_row_and_do_not_move_the_result() -> None:
-    """3 readings of 50 moved by 5-50 mm: exactly those rows flagged; the validation error
-    within 10 % of the outlier-free identification's (``DRAWS`` robots, 0.02 mm noise)."""
+    """3 readings of 50 moved by 5-50 mm (``DRAWS`` robots, 0.02 mm noise): exactly those rows
+    are flagged; the result is the least-squares one of the 47 good readings (the outliers
+    have no influence left), and its validation error is on average within 10 % of the
+    identification from all 50 readings uncorrupted (single draws scatter more: three fewer
+    poses, e.g. 1.41 at most of 50 draws)."""
     ratios = []
     for draw in range(DRAWS):
         rng = np.random.default_rng(42 + draw)
+        leg = draw % ROBOT.n_legs
         truth = perturbed(rng)
-        clean = readings_of(truth, (draw % ROBOT.n_legs,), 50, rng, 2e-5)
-        bad_rows = np.sort(rng.choice(50, 3, replace=False))
+        clean = readings_of(truth, (leg,), 50, rng, 2e-5)
+        bad = np.zeros(50, dtype=bool)
+        bad[rng.choice(50, 3, replace=False)] = True
         points = clean.points.copy()
-        for row, size in zip(bad_rows, rng.uniform(5e-3, 50e-3, 3), strict=True):
+        for row, size in zip(np.flatnonzero(bad), rng.uniform(5e-3, 50e-3, 3), strict=True):
             direction = rng.normal(size=3)
             points[row] += size * direction / np.linalg.norm(direction)
         dirty = Readings(clean.legs, clean.q, points, clean.lines)
-        results = []
-        for readings in (clean, dirty):
-            fit = session.robust_fit(ROBOT, readings, NOMINAL, np.zeros(3), tracker=False)
-            results.append(validate(fit.state, truth, (draw % ROBOT.n_legs,),
-                                    np.random.default_rng(0))[0].mean())
-        assert list(dirty.lines[fit.outliers]) == list(bad_rows + 2)
-        ratios.append(results[1] / results[0])
+        fits = [session.robust_fit(ROBOT, readings, NOMINAL, np.zeros(3), tracker=False)
+                for readings in (clean, dirty, clean.subset(~bad))]
+        assert list(dirty.lines[fits[1].outliers]) == list(clean.lines[bad])
+        np.testing.assert_allclose(fits[1].state.params, fits[2].state.params, atol=1e-12)
+        errors = [validate(fit.state, truth, (leg,), np.random.default_rng(0))[0].mean()
+                  for fit in fits[:2]]
+        ratios.append(errors[1] / errors[0])
     print(f"\noutliers, {DRAWS} draws: validation mean with / without them: "
           f"{_report('ratio', ratios)}")
-    assert max(ratios) <= 1.1
+    assert np.mean(ratios) <= 1.1
 
 
 @pytest.mark.parametrize(("poses", "message"), [
