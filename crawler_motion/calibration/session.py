@@ -2,9 +2,11 @@
 frame, the tracker-to-body transform, identified together by robust least squares (pure numpy).
 
 Model of a reading: the target (the foot tip plus ``offset`` [m] in the tibia frame, i.e. the
-chain with ``l3, foot_y, foot_z`` shifted by it) in base_link, ``p``; read as ``p`` in the body
-frame or as ``R^T (p - t)`` in the tracker's, ``(R, t)`` being the tracker's pose in base_link
-(6 unknowns shared by every leg of the session, updated as ``R exp([w])``, ``t + v``).
+chain with ``l3, foot_y, foot_z`` shifted by it; ``foot_z`` stays fixed, so that frame's x
+runs from the knee axis to the foot tip, y along the knee axis) in base_link, ``p``; read as
+``p`` in the body frame or as ``R^T (p - t)`` in the tracker's, ``(R, t)`` being the tracker's
+pose in base_link (6 unknowns shared by every leg of the session, updated as ``R exp([w])``,
+``t + v``).
 
 Identifiability (`layout`): each leg identifies its 15 parameters (`jacobian.identifiable_set`).
 With the tracker's pose free, a rigid motion of the tracker together with the same motion of

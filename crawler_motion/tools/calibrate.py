@@ -51,7 +51,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="frame of the readings; tracker: its pose is identified too")
     ident.add_argument("--target-offset", nargs=3, type=finite_number("--target-offset"),
                        default=(0.0, 0.0, 0.0), metavar=("X", "Y", "Z"),
-                       help="the target's offset from the foot tip in the tibia frame [m]")
+                       help="the target's offset from the foot tip [m]: x from the knee axis "
+                       "to the foot tip, y along the knee axis, z completing")
     ident.add_argument("--max-noise", type=finite_number("--max-noise", positive=True),
                        default=1e-4, help="largest robust tracker noise sigma per axis [m] a "
                        "session may show (default 1e-4)")

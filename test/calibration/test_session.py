@@ -341,3 +341,35 @@ def test_urdf_of_the_identified_legs_is_the_true_robot(tmp_path: Path,
     q = _poses(rng, 100)
     for leg in ROBOT.legs:
         assert np.abs(identified[leg].feet(q) - truth[leg].feet(q)).max() < 1e-9
+
+
+@pytest.mark.parametrize("tracker", [False, True])
+def test_target_offset_gives_the_foot_tip(tracker: bool) -> None:
+    """Readings of a target beside the foot tip, identified with its offset, give the legs
+    identified from readings of the foot tip itself (two legs; the truth is the model's chain
+    here: this checks the offset's bookkeeping). The offset is in the frame whose x runs from
+    the knee axis to the foot tip (foot_z = 0: the frame the identification keeps)."""
+    from crawler_motion.calibration.jacobian import leg_feet
+    from crawler_motion.calibration.synthetic import perturbed_robot
+    from crawler_motion.model.leg_geometry import INDEX
+    true = perturbed_robot(ROBOT, 12).geometry
+    assert true is not None
+    true.params[:, INDEX["foot_z"]] = 0.0
+    offset = np.array([0.004, 0.008, -0.003])
+    rng = np.random.default_rng(12)
+    legs = np.repeat(np.array([0, 1]), 40)
+    q = _poses(rng, 80)
+    fits = []
+    for shift in (offset, np.zeros(3)):
+        params = true.params.copy()
+        params[:, list(session.TIP)] += shift
+        points = np.array([leg_feet(ROBOT, int(leg), params[leg], row)
+                           for leg, row in zip(legs, q, strict=True)])
+        if tracker:
+            points = (points - np.array([1.0, -2.0, 0.5])) @ _rot([1, 2, 3], 2.0)
+        fits.append(session.robust_fit(ROBOT, Readings(legs, q, points, np.arange(2, 82)),
+                                       NOMINAL, shift, tracker=tracker))
+    np.testing.assert_allclose(fits[0].state.params, fits[1].state.params, atol=1e-10)
+    if not tracker:
+        np.testing.assert_allclose(fits[1].state.params[:2, list(session.TIP)[:2]],
+                                   true.params[:2, list(session.TIP)[:2]], atol=1e-10)
