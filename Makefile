@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-all lint bench fuzz soak plots clean
+.PHONY: demo test test-all lint bench fuzz soak plots clean calibration-figures
 
 $(STAMP): requirements.txt setup.py
 	$(PYTHON) -m venv $(VENV)
@@ -21,6 +21,9 @@ test: $(STAMP)
 
 fuzz: $(STAMP)
 	FUZZ_EXAMPLES=10000 $(PY) -m pytest -q -s test/system/test_fuzz_chain.py test/planner/test_commands.py -k fuzz
+
+calibration-figures: $(STAMP)
+	RIGID_DRAWS=50 $(PY) -m pytest -q -s test/calibration/test_session.py
 
 lint: $(STAMP)
 	$(PY) -m ruff check crawler_motion test

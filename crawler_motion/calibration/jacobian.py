@@ -16,8 +16,8 @@ from crawler_motion.model.leg_geometry import INDEX, N_PARAMS, NAMES, leg_chain,
 #: displacements, which the others absorb, last.
 PREFERENCE: tuple[str, ...] = (
     "l1", "l2", "l3", "root_offset", "shoulder_offset", "knee_offset", "hip_x", "hip_y",
-    "hip_z", "root_tilt_x", "root_tilt_y", "shoulder_twist", "knee_twist", "foot_y",
-    "shoulder_dz", "foot_z")
+    "hip_z", "root_tilt_x", "root_tilt_y", "shoulder_twist", "knee_twist", "knee_yaw",
+    "foot_y", "shoulder_dz", "foot_z")
 #: Singular values below this fraction of the largest (column-normalised) count as zero.
 RANK_TOL = 1e-8
 

@@ -5,11 +5,15 @@ Format (every key optional but ``legs``; a parameter left out keeps its nominal 
 left out is nominal; lengths and displacements in m, angles in rad)::
 
     calibration:
+      version: 2
       legs:
         lf: {l1: 0.0302, l2: 0.0597, root_offset: 0.0081, knee_twist: -0.0012, ...}
         rb: {...}
 
-Parameter names and meaning: `crawler_motion.model.leg_geometry`.
+Parameter names and meaning: `crawler_motion.model.leg_geometry`. Version 2 (written since the
+leg model is complete) adds ``knee_yaw``; a file without ``version`` is version 1 and loads
+unchanged (its legs are the version-2 chain with ``knee_yaw`` = 0, the same feet), but it
+was identified without the knee axis's yaw: `LegCalibration.note` says so and how to redo it.
 """
 
 from __future__ import annotations
@@ -26,6 +30,11 @@ import yaml
 from crawler_motion.errors import CalibrationError
 from crawler_motion.model.leg_geometry import INDEX, N_PARAMS, NAMES, implausible, nominal_params
 
+#: Format version written; 1: the 16-parameter chain (no ``knee_yaw``).
+VERSION = 2
+#: Parameters a version-1 file cannot have.
+NEW_IN_2 = ("knee_yaw",)
+
 if TYPE_CHECKING:
     from crawler_motion.model.config import Config, RobotConfig
 
@@ -40,6 +49,7 @@ class LegCalibration:
     nominal: np.ndarray
     source: str = "<memory>"
     nominal_legs: tuple[bool, ...] = field(default=())
+    version: int = VERSION
 
     def __post_init__(self) -> None:
         if not self.nominal_legs:
@@ -48,12 +58,22 @@ class LegCalibration:
             object.__setattr__(self, "nominal_legs", flags)
 
     @property
+    def note(self) -> str:
+        """Empty, or why the file should be identified again (a version-1 file)."""
+        if self.version >= VERSION:
+            return ""
+        return (f"{self.source} is a version-{self.version} calibration, identified without the "
+                f"knee axis's yaw (knee_yaw); it loads unchanged, but to absorb that error "
+                f"identify the legs again (crawler-motion calibrate identify)")
+
+    @property
     def is_nominal(self) -> bool:
         """True when every leg has exactly its nominal geometry."""
         return all(self.nominal_legs)
 
     def with_leg(self, leg: str, params: np.ndarray) -> LegCalibration:
-        """A copy with ``leg``'s parameters replaced (checked for plausibility)."""
+        """A copy with ``leg``'s parameters replaced (checked for plausibility); it is written
+        as the current version (the other legs' geometry is the same in it)."""
         i = self._index(leg)
         _check(params, self.nominal[i], f"leg {leg}")
         table = self.params.copy()
@@ -97,6 +117,7 @@ def parse_calibration(data: Any, legs: tuple[str, ...], links: tuple[float, floa
     if not isinstance(table, Mapping):
         raise CalibrationError(f"{path}: needs a mapping 'calibration: legs: {{leg: {{param: "
                                f"value}}}}'", path=path)
+    version = _version(section, path)
     params = base.params.copy()
     for leg, values in table.items():
         if leg not in legs:
@@ -111,9 +132,26 @@ def parse_calibration(data: Any, legs: tuple[str, ...], links: tuple[float, floa
                 raise CalibrationError(f"{path}: calibration.legs.{leg}.{name} is not a "
                                        f"parameter; known: {', '.join(NAMES)}", path=path,
                                        key=f"{leg}.{name}")
+            if version < 2 and name in NEW_IN_2:
+                raise CalibrationError(f"{path}: calibration.legs.{leg}.{name} needs "
+                                       f"'version: 2' under 'calibration:'", path=path,
+                                       key=f"{leg}.{name}")
             params[i, INDEX[name]] = _value(raw, f"calibration.legs.{leg}.{name}", path)
         _check(params[i], base.nominal[i], f"{path}: leg {leg}", path)
-    return LegCalibration(tuple(legs), params, base.nominal, str(path))
+    return LegCalibration(tuple(legs), params, base.nominal, str(path), version=version)
+
+
+def _version(section: Mapping[str, Any], path: Path) -> int:
+    raw = section.get("version", 1)
+    if isinstance(raw, bool) or not isinstance(raw, int) or raw < 1:
+        raise CalibrationError(f"{path}: calibration.version must be 1 or 2, got {raw!r}",
+                               path=path, key="version")
+    if raw > VERSION:
+        raise CalibrationError(f"{path}: calibration version {raw} is newer than this "
+                               f"crawler_motion reads (1 to {VERSION}): update crawler_motion, "
+                               f"or identify the legs again with this one", path=path,
+                               key="version")
+    return raw
 
 
 def _yaml_error(exc: yaml.YAMLError) -> str:
@@ -167,7 +205,8 @@ def calibration_yaml(calib: LegCalibration) -> str:
              for i, leg in enumerate(calib.legs) if not calib.nominal_legs[i]}
     header = ("# Leg calibration of crawler_motion: per-leg geometry (lengths and displacements"
               " in m,\n# angles in rad; see crawler_motion/model/leg_geometry.py).\n")
-    return header + yaml.safe_dump({"calibration": {"legs": table}}, sort_keys=False)
+    return header + yaml.safe_dump({"calibration": {"version": VERSION, "legs": table}},
+                                   sort_keys=False)
 
 
 def write_calibration(path: str | Path, calib: LegCalibration) -> None:

@@ -1,6 +1,6 @@
 """Per-leg geometry with assembly errors: an MDH-style chain of elementary transforms (pure numpy).
 
-Each leg is a chain of 16 elementary transforms in its leg frame (origin at the nominal hip
+Each leg is a chain of 17 elementary transforms in its leg frame (origin at the nominal hip
 of ``robot.yaml``, x along the leg's neutral yaw, z up), one parameter each (`PARAMS`, in
 chain order). Joint elements rotate by ``sign * (q + offset)``; the others by / along their
 parameter. At the nominal values (lengths from ``robot.yaml``, everything else 0) the chain is
@@ -12,12 +12,21 @@ exactly the closed-form leg of `crawler_motion.model.kinematics`:
     l1, shoulder_dz    -> coxa length along x, shoulder axis height [m]
     shoulder_twist     -> shoulder axis misalignment about the coxa (x) [rad]
     shoulder_offset    -> Rot_y(-(shoulder + offset)): femur up for shoulder > 0 [rad]
-    l2, knee_twist     -> femur length [m]; knee axis misalignment about the femur [rad]
+    l2                 -> femur length [m]
+    knee_twist, knee_yaw -> knee axis misalignment about the femur (x) and about z [rad]
     knee_offset        -> Rot_y(knee + offset): tibia down for knee > 0 [rad]
     l3, foot_y, foot_z -> foot tip in the tibia frame [m]
 
-Shoulder and knee axes are parallel (the Hayati case of MDH): their relative misalignment is a
-rotation about the link (``knee_twist``), never an ill-defined common normal.
+Completeness: root -> shoulder are perpendicular axes, so the classic MDH parameters (joint
+zero, height along the root axis, common normal l1, twist) describe them; the shoulder and
+knee axes are nominally parallel, where MDH's common normal is ill-defined, so the Hayati form
+is used: the knee axis is placed by l2 and the shoulder's zero, and its direction needs TWO
+misalignment angles, ``knee_twist`` (about the femur) and ``knee_yaw`` (about z, the axis
+turning within the femur's plane). Any 3R leg near the nominal one is this chain with some
+parameter values. 17 parameters, 15 identifiable from foot positions (4 per joint + 6 for
+the foot's frame - 3 for its orientation, which a point does not show): ``shoulder_dz`` is
+the same motion as ``hip_z`` and ``foot_z`` as ``knee_offset`` with ``l3``
+(docs/calibration.md). Files written before ``knee_yaw`` existed read it as 0.
 """
 
 from __future__ import annotations
@@ -67,6 +76,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("shoulder_twist", _R, 0, _A),
     ParamDef("shoulder_offset", _R, 1, _A, joint=1, sign=-1.0),
     ParamDef("l2", _T, 0, _L), ParamDef("knee_twist", _R, 0, _A),
+    ParamDef("knee_yaw", _R, 2, _A),
     ParamDef("knee_offset", _R, 1, _A, joint=2),
     ParamDef("l3", _T, 0, _L), ParamDef("foot_y", _T, 1, _D), ParamDef("foot_z", _T, 2, _D),
 )

@@ -114,3 +114,21 @@ def slerp_rotation(start: np.ndarray, end: np.ndarray, fraction: float) -> np.nd
         return quaternion_matrix(q0 + fraction * (q1 - q0))
     q = (math.sin((1.0 - fraction) * angle) * q0 + math.sin(fraction * angle) * q1)
     return quaternion_matrix(q / math.sin(angle))
+
+
+def rotation_vector_matrix(vector: np.ndarray) -> np.ndarray:
+    """The rotation ``(3, 3)`` by ``|vector|`` [rad] about ``vector`` ``(3,)`` (Rodrigues)."""
+    v = np.asarray(vector, dtype=float)
+    angle = float(np.linalg.norm(v))
+    if angle == 0.0:
+        return np.eye(3)
+    k = v / angle
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * kx @ kx
+
+
+def rotation_angle(rotation: np.ndarray) -> float:
+    """Angle [rad] of the rotation matrix ``rotation`` (0..π), accurate for small angles."""
+    m = np.asarray(rotation, dtype=float)
+    skew = 0.5 * np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+    return math.atan2(float(np.linalg.norm(skew)), (float(np.trace(m)) - 1.0) / 2.0)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from crawler_motion.errors import ConfigError
-from crawler_motion.model.rotations import quaternion_matrix, rpy_matrix
+from crawler_motion.model.rotations import quaternion_matrix, rotation_vector_matrix, rpy_matrix
 
 #: One transform: parent frame, child frame, translation [m], rotation quaternion (x, y, z, w).
 Transform = tuple[str, str, np.ndarray, np.ndarray]
@@ -59,9 +59,7 @@ def urdf_joints(urdf: str) -> list[UrdfJoint]:
 
 def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     """The rotation by ``angle`` [rad] about the unit vector ``axis`` (Rodrigues)."""
-    k = axis / np.linalg.norm(axis)
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(angle) * kx + (1.0 - np.cos(angle)) * kx @ kx
+    return rotation_vector_matrix(axis / np.linalg.norm(axis) * angle)
 
 
 def quaternion_xyzw(rotation: np.ndarray) -> np.ndarray:

@@ -39,7 +39,7 @@ def _problem(seed: int, leg: int, noise: float, n: int = 50) -> tuple[Problem, P
 def test_rank_and_the_fixed_parameters_say_why() -> None:
     q = np.random.default_rng(0).uniform(LOW, HIGH, (50, 3))
     ident = identifiable_set(stacked_jacobian(ROBOT, 0, excitation.robot_params(ROBOT, 0), q))
-    assert ident.rank == 14 and len(ident.columns) == 14
+    assert ident.rank == 15 and len(ident.columns) == 15
     assert ident.fixed == {"shoulder_dz": "same motion as hip_z",
                            "foot_z": "same motion as knee_offset"}
 

@@ -20,7 +20,7 @@ from crawler_motion.model.calibration_file import (
     write_calibration,
 )
 from crawler_motion.model.config import load_config
-from crawler_motion.model.leg_geometry import INDEX, N_PARAMS, leg_chain, nominal_params
+from crawler_motion.model.leg_geometry import INDEX, N_PARAMS, NAMES, leg_chain, nominal_params
 from crawler_motion.motion.fastpath import FastKinematics
 
 ROBOT = load_config().robot
@@ -118,6 +118,12 @@ def test_file_round_trip_and_robot_yaml_reference(tmp_path: Path) -> None:
     ("calibration: {legs: {lf: {l1: yes}}}", "finite number"),
     ("calibration: {legs: [lf]}", "needs a mapping"),
     ("calibration: {legs: {lf: {l1: [}}", "not valid YAML"),
+    ("calibration: {legs: {lf: {knee_yaw: 0.001}}}", "needs 'version: 2'"),
+    ("calibration: {version: 3, legs: {lf: {l1: 0.03}}}", "newer than this"),
+    ("calibration: {version: two, legs: {lf: {l1: 0.03}}}", "must be 1 or 2"),
+    ("calibration: {version: 0, legs: {lf: {l1: 0.03}}}", "must be 1 or 2"),
+    (f"calibration: {{version: 2, legs: {{lf: {{knee_yaw: {math.radians(10.01)}}}}}}}",
+     "beyond ±10 deg"),
 ])
 def test_bad_files_are_refused_with_the_reason(tmp_path: Path, body: str, reason: str) -> None:
     path = tmp_path / "bad.yaml"
@@ -127,10 +133,30 @@ def test_bad_files_are_refused_with_the_reason(tmp_path: Path, body: str, reason
 
 
 @pytest.mark.parametrize(("key", "value"), [("l2", 0.0659), ("l2", 0.0541),
-                                            ("knee_offset", math.radians(9.99))])
+                                            ("knee_offset", math.radians(9.99)),
+                                            ("knee_yaw", -math.radians(9.99))])
 def test_plausible_boundary_values_load(tmp_path: Path, key: str, value: float) -> None:
     path = tmp_path / "ok.yaml"
-    path.write_text(f"calibration: {{legs: {{lb: {{{key}: {value}}}}}}}")
+    path.write_text(f"calibration: {{version: 2, legs: {{lb: {{{key}: {value}}}}}}}")
     calib = load_calibration(path, ROBOT.legs, LINKS)
     assert calib.params[1, INDEX[key]] == value and calib.nominal_legs == (True, False, True,
                                                                            True)
+
+
+def test_a_version_1_file_loads_unchanged_with_a_note(tmp_path: Path) -> None:
+    """A file of the 16-parameter model (no version, no knee_yaw): same legs, knee_yaw 0, and
+    a note saying to identify again; a written file is version 2."""
+    true = perturbed_robot(ROBOT, 6)
+    assert true.geometry is not None
+    old = true.geometry.params.copy()
+    old[:, INDEX["knee_yaw"]] = 0.0
+    lines = [f"    {leg}: {{" + ", ".join(f"{name}: {float(old[i, k])!r}" for k, name in enumerate(
+        NAMES) if name != "knee_yaw") + "}" for i, leg in enumerate(ROBOT.legs)]
+    (tmp_path / "v1.yaml").write_text("calibration:\n  legs:\n" + "\n".join(lines) + "\n")
+    back = load_calibration(tmp_path / "v1.yaml", ROBOT.legs, LINKS)
+    np.testing.assert_array_equal(back.params, old)
+    assert back.version == 1 and "identify the legs again" in back.note
+    write_calibration(tmp_path / "v2.yaml", back)
+    again = load_calibration(tmp_path / "v2.yaml", ROBOT.legs, LINKS)
+    assert again.version == 2 and again.note == ""
+    assert "version: 2" in (tmp_path / "v2.yaml").read_text()
