@@ -145,6 +145,7 @@ class ApfNavigator:
     distinct: list[np.ndarray] = field(default_factory=list)  # used since the goal [m]
     path_length: float | None = None  # of the last plan [m]
     walked: float = 0.0  # along the structure [m]
+    disc: float = 0.0  # the field's disc radius of the last cycle (virtual radius + margin) [m]
     _since: float = 0.0
     _last: np.ndarray | None = None
 
@@ -188,6 +189,7 @@ class ApfNavigator:
                 "heading": self.heading, "distance": self.distance, "rule": None,
                 "virtual_goals": [[round(float(v), 3) for v in g] for g in self.virtual_goals],
                 "virtual_goals_used": len(self.distinct), "path_length": self.path_length,
+                "disc_radius": round(self.disc, 4),
                 "follow": None if c is None else {"length": c.length, "side": c.side.value,
                                                    "walked": round(self.walked, 3)}}
 
@@ -275,6 +277,7 @@ class ApfNavigator:
         points = xy[None, :] if self.goal is None else np.vstack((xy, self.goal))
         margin = radius + s.margin + 2.0 * s.standoff + 0.5
         fld = self._field(planning_grid(view, points, margin), xy, radius)
+        self.disc = fld.radius
         try:
             if self.mode is Mode.GOTO:
                 res = self._goto(fld, xy)

@@ -46,6 +46,7 @@ class LiveResult:
     contacts: int = 0
     cpu: dict[str, float] = field(default_factory=dict)
     duration: float = 0.0
+    disc_radius: float | None = None  # the navigator's mean disc radius (apf) [m]
 
     def cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
         """x and y [m] of every map cell's centre."""
@@ -70,6 +71,7 @@ class _Watch:
         self.grid: Any = None
         self.status: dict[str, Any] = {}
         self.contacts = 0
+        self.discs: list[float] = []  # the navigator's disc radius while active [m]
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         node.create_subscription(Odometry, "odom", self._odom, 10)
         node.create_subscription(OccupancyGrid, "terrain_map", self._map, 2)
@@ -88,7 +90,9 @@ class _Watch:
         try:
             self.status = json.loads(msg.data)
         except ValueError:
-            pass
+            return
+        if self.status.get("state") == "ACTIVE" and self.status.get("disc_radius"):
+            self.discs.append(float(self.status["disc_radius"]))
 
     def _diag(self, msg: Any) -> None:
         for status in msg.status:
@@ -102,14 +106,15 @@ class LiveNav:
 
     def __init__(self, logs: Path, world: str,
                  start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
-                 params: Mapping[str, Mapping[str, Any]] | None = None) -> None:
+                 params: Mapping[str, Mapping[str, Any]] | None = None,
+                 domain: int | None = None) -> None:
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
 
         extra = {k: dict(v) for k, v in (params or {}).items()}
         extra.setdefault("seabed_sim", {})["start_pose"] = [float(v) for v in start_pose]
         self.options = BringUpOptions(world=world, bus=BusSpec.fresh(), extra=extra)
-        self.env = isolated_env()  # this process's ROS domain: its graph shows the nodes
+        self.env = isolated_env(domain)  # rclpy's domain here (None: the environment's)
         self.node = rclpy.create_node("live_nav_watch")
         self.watch = _Watch(self.node)
         self.executor = SingleThreadedExecutor()
@@ -169,6 +174,7 @@ class LiveNav:
         began = time.monotonic()
         with w.lock:
             w.path.clear()
+        w.discs.clear()
         send()
         end = began + timeout
         while time.monotonic() < end:
@@ -188,7 +194,8 @@ class LiveNav:
     def _result(self, wall: float, cpu: dict[str, float]) -> LiveResult:
         w = self.watch
         res = LiveResult(state=str(w.status.get("state")), reason=str(w.status.get("reason")),
-                         contacts=w.contacts, cpu=cpu, duration=wall)
+                         contacts=w.contacts, cpu=cpu, duration=wall,
+                         disc_radius=float(np.mean(w.discs)) if w.discs else None)
         with w.lock:
             res.path = np.array(w.path) if w.path else np.zeros((0, 3))
         grid = w.grid
@@ -204,4 +211,5 @@ class LiveNav:
         """Stop every process and the watch node."""
         self.sup.stop()
         self.executor.shutdown()
+        self._spin.join(5.0)
         self.node.destroy_node()

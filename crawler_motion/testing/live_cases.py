@@ -1,0 +1,148 @@
+"""The navigation cases walked on the real-time stack, and their figures (tests and docs).
+
+Each case is a world, a start pose, navigator parameters and a task (a goal or a follow
+command); `run_case` walks it with `live_nav.LiveNav` and `figures` measures what the targets
+ask: the final distance to the goal, the body centre's least distance to the obstacles, the
+wall cells of the final map (known, obstacle, free), obstacle cells more than one cell from a
+real obstacle, contact ticks, and for a follow the mean clearance of the navigator's disc
+from the mapped obstacle cells (what it controls) and from the real wall.
+The obstacles are the world's boxes (axis-aligned, as the shipped worlds have them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from crawler_motion.testing.live_nav import LiveNav, LiveResult
+
+#: Wall boxes of the shipped worlds: (x0, x1, y0, y1) [m].
+BOXES: dict[str, tuple[tuple[float, float, float, float], ...]] = {
+    "low_wall": ((0.80, 0.90, -0.30, 0.30),),
+    "u_trap": ((0.50, 0.60, -0.35, 0.35), (-0.10, 0.50, 0.30, 0.40),
+               (-0.10, 0.50, -0.40, -0.30)),
+    "long_wall": ((-0.40, 2.60, 0.475, 0.575),),
+}
+
+
+@dataclass(frozen=True)
+class Case:
+    """A world, start pose (x, y [m], yaw [rad]), navigator parameters and a task: ``goal``
+    (x, y) or ``follow`` (length [m], side)."""
+
+    name: str
+    world: str
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    navigator: dict[str, Any] = field(default_factory=dict)
+    goal: tuple[float, float] | None = None
+    follow: tuple[float, str] | None = None
+    timeout: float = 150.0
+
+
+CASES = {
+    "wall_crab": Case("wall_crab", "low_wall", goal=(1.6, 0.0),
+                      navigator={"steering": "crab"}),
+    "wall_turn": Case("wall_turn", "low_wall", goal=(1.6, 0.0),
+                      navigator={"steering": "turn"}),
+    "u_trap_apf": Case("u_trap_apf", "u_trap", start=(-1.2, 0.0, 0.0), goal=(1.3, 0.0),
+                       navigator={"method": "apf"}, timeout=200.0),
+    **{f"follow_{int(s * 100)}": Case(f"follow_{int(s * 100)}", "long_wall",
+                                      follow=(1.5, "left"),
+                                      navigator={"method": "apf", "standoff": s})
+       for s in (0.10, 0.15, 0.20)},
+}
+
+
+def box_distance(world: str, xy: np.ndarray) -> np.ndarray:
+    """Least distance [m] from points ``(k, 2)`` to the world's boxes (0 inside one)."""
+    best = np.full(len(xy), np.inf)
+    for x0, x1, y0, y1 in BOXES[world]:
+        dx = np.maximum(0.0, np.maximum(x0 - xy[:, 0], xy[:, 0] - x1))
+        dy = np.maximum(0.0, np.maximum(y0 - xy[:, 1], xy[:, 1] - y1))
+        best = np.minimum(best, np.hypot(dx, dy))
+    return best
+
+
+def map_distance(res: LiveResult, xy: np.ndarray) -> np.ndarray:
+    """Least distance [m] from points ``(k, 2)`` to the obstacle cells (squares) of the final
+    map: what the navigator keeps its disc's stand-off from."""
+    assert res.map_data is not None
+    x, y = res.cell_centres()
+    obstacle = res.map_data == 100
+    cells = np.column_stack([x[obstacle], y[obstacle]])
+    if len(cells) == 0:
+        return np.full(len(xy), np.inf)
+    half = res.map_resolution / 2
+    d = np.maximum(np.abs(xy[:, None, :] - cells[None, :, :]) - half, 0.0)
+    return np.hypot(d[..., 0], d[..., 1]).min(axis=1)
+
+
+def map_figures(world: str, res: LiveResult) -> dict[str, float]:
+    """Cells touching a box that the map knows, of them obstacles and free; obstacle cells
+    whose square lies more than one cell from every box."""
+    assert res.map_data is not None
+    x, y = res.cell_centres()
+    h = res.map_resolution / 2
+    data = res.map_data
+    touch = np.zeros(data.shape, dtype=bool)
+    for x0, x1, y0, y1 in BOXES[world]:
+        touch |= (x + h > x0) & (x - h < x1) & (y + h > y0) & (y - h < y1)
+    known = touch & (data >= 0)
+    centre_gap = box_distance(world, np.column_stack([x.ravel(), y.ravel()])).reshape(x.shape)
+    stray = (data == 100) & (centre_gap - h * np.sqrt(2) > res.map_resolution)
+    return {"wall_cells_known": int(known.sum()),
+            "wall_cells_obstacle": int((data[known] == 100).sum()),
+            "wall_cells_free": int((data[known] == 0).sum()),
+            "stray_obstacle_cells": int(stray.sum())}
+
+
+def figures(case: Case, res: LiveResult, disc_radius: float) -> dict[str, float]:
+    """The case's figures from a run (``disc_radius``: the navigator's disc [m] when its
+    status does not say)."""
+    xy = res.path[:, 1:3]
+    out: dict[str, float] = {"state": res.state, "reason": res.reason,  # type: ignore[dict-item]
+                             "duration_s": res.duration, "contact_ticks": res.contacts,
+                             "min_centre_distance_m": float(box_distance(case.world,
+                                                                         xy).min())}
+    if case.goal is not None:
+        out["final_error_m"] = float(np.hypot(*(xy[-1] - np.array(case.goal))))
+    if case.follow is not None:
+        disc_radius = res.disc_radius or disc_radius
+        out["disc_radius_m"] = disc_radius
+        walked = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+        steady = walked >= walked[-1] / 5  # after the first fifth, as the offline figure
+        out["mean_clearance_m"] = float(map_distance(res, xy[steady]).mean() - disc_radius)
+        out["mean_wall_clearance_m"] = float(
+            box_distance(case.world, xy[steady]).mean() - disc_radius)
+        out["walked_m"] = float(walked[-1])
+    out.update(map_figures(case.world, res))
+    out.update({f"cpu_{k}_pct": v for k, v in res.cpu.items()})
+    return out
+
+
+def run_case(case: Case, logs: Path, domain: int | None = None
+             ) -> tuple[LiveResult, dict[str, float]]:
+    """Walk ``case`` on the real-time stack (rclpy initialised by the caller in ROS domain
+    ``domain``; None: the environment's)."""
+    from crawler_motion.model.config import load_config
+    from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS
+
+    spec = {p.name: p for p in NAVIGATOR_PARAMETERS}
+    margin = case.navigator.get("margin", spec["margin"].default)
+    feet = load_config().robot.standing_feet()
+    radius = float(np.hypot(feet[:, 0], feet[:, 1]).max()) + float(margin)
+    nav = LiveNav(logs, case.world, case.start, params={"navigator": case.navigator},
+                  domain=domain)
+    try:
+        nav.start()
+        if case.goal is not None:
+            res = nav.goto(*case.goal, timeout=case.timeout)
+        else:
+            assert case.follow is not None
+            res = nav.follow(*case.follow, timeout=case.timeout)
+    finally:
+        nav.close()
+    return res, figures(case, res, radius)
