@@ -28,7 +28,7 @@ def check_map(fig: dict) -> None:
 
 @pytest.mark.parametrize("name", ["wall_crab", "wall_turn", "u_trap_apf"])
 def test_goals_around_obstacles(name: str, tmp_path: Path, ros_domain: int) -> None:
-    res, fig = run_case(CASES[name], tmp_path, ros_domain)
+    _res, fig = run_case(CASES[name], tmp_path, ros_domain)
     assert fig["state"] == "ARRIVED", fig
     assert fig["final_error_m"] <= 0.10, fig
     assert fig["min_centre_distance_m"] >= 0.15, fig
@@ -39,7 +39,7 @@ def test_goals_around_obstacles(name: str, tmp_path: Path, ros_domain: int) -> N
 @pytest.mark.parametrize("name", ["follow_10", "follow_15", "follow_20"])
 def test_follow_a_wall_at_the_standoff(name: str, tmp_path: Path, ros_domain: int) -> None:
     case = CASES[name]
-    res, fig = run_case(case, tmp_path, ros_domain)
+    _res, fig = run_case(case, tmp_path, ros_domain)
     standoff = case.navigator["standoff"]
     assert fig["state"] == "ARRIVED" and fig["walked_m"] >= 1.4, fig
     assert abs(fig["mean_clearance_m"] - standoff) <= 0.2 * standoff, fig  # from the map

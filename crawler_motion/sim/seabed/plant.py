@@ -11,8 +11,8 @@ import mujoco
 import numpy as np
 
 from crawler_motion.canbus.protocol import MotorProtocol
-from crawler_motion.sim.seabed.model import IMU_SENSORS, SeabedModel
 from crawler_motion.sim.seabed.contacts import body_contact
+from crawler_motion.sim.seabed.model import IMU_SENSORS, SeabedModel
 from crawler_motion.sim.seabed.scanner import RangeScanner
 from crawler_motion.sim.seabed.water import check_range
 
