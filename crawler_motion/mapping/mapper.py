@@ -266,5 +266,5 @@ class TerrainMapper:
         threshold without the confidence margin: never free)."""
         g, obstacle = self.grid, self.obstacles()
         uncertain = uncertain_cells(g.height, g.known, self.settings.obstacle_height,
-                                    self._radius_cells, obstacle)
+                                    self._radius_cells, obstacle, g.far)
         return occupancy(g.known, obstacle, uncertain)

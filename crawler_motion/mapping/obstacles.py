@@ -16,7 +16,8 @@ whatever its fused height (the mean of its foot and its top) says. Gated returns
 face cell's variance, so the height rule alone fails there.
 
 Occupancy: 100 obstacle; -1 unknown, which includes a known cell that is above the threshold
-but not by the confidence margin (`uncertain_cells`: never called free); 0 free.
+but not by the confidence margin, or that has a return far from its estimate without being a
+face yet (`uncertain_cells`: never called free); 0 free.
 """
 
 from __future__ import annotations
@@ -80,10 +81,15 @@ def face_cells(far: np.ndarray, returns: np.ndarray) -> np.ndarray:
 
 
 def uncertain_cells(height: np.ndarray, known: np.ndarray, threshold: float,
-                    radius_cells: int, obstacle: np.ndarray) -> np.ndarray:
+                    radius_cells: int, obstacle: np.ndarray,
+                    far: np.ndarray | None = None) -> np.ndarray:
     """Known cells that are not obstacles but above the threshold (not by the confidence
-    margin): published as unknown, never free."""
-    return ~obstacle & (above_ground(height, known, radius_cells) > threshold)
+    margin) or with a return far from their estimate (``far`` counts): published as unknown,
+    never free."""
+    doubt = above_ground(height, known, radius_cells) > threshold
+    if far is not None:
+        doubt |= known & (far > 0)
+    return ~obstacle & doubt
 
 
 def occupancy(known: np.ndarray, obstacle: np.ndarray,

@@ -80,7 +80,7 @@ def map_distance(res: LiveResult, xy: np.ndarray) -> np.ndarray:
     return np.hypot(d[..., 0], d[..., 1]).min(axis=1)
 
 
-def map_figures(world: str, res: LiveResult) -> dict[str, float]:
+def map_figures(world: str, res: LiveResult) -> dict[str, Any]:
     """Cells touching a box that the map knows, of them obstacles and free; obstacle cells
     whose square lies more than one cell from every box."""
     assert res.map_data is not None
@@ -88,14 +88,18 @@ def map_figures(world: str, res: LiveResult) -> dict[str, float]:
     h = res.map_resolution / 2
     data = res.map_data
     touch = np.zeros(data.shape, dtype=bool)
+    eps = 1e-6  # a cell that only shares an edge with the box does not touch it
     for x0, x1, y0, y1 in BOXES[world]:
-        touch |= (x + h > x0) & (x - h < x1) & (y + h > y0) & (y - h < y1)
+        touch |= (x + h > x0 + eps) & (x - h < x1 - eps) & (y + h > y0 + eps) & (
+            y - h < y1 - eps)
     known = touch & (data >= 0)
     centre_gap = box_distance(world, np.column_stack([x.ravel(), y.ravel()])).reshape(x.shape)
     stray = (data == 100) & (centre_gap - h * np.sqrt(2) > res.map_resolution)
     return {"wall_cells_known": int(known.sum()),
             "wall_cells_obstacle": int((data[known] == 100).sum()),
             "wall_cells_free": int((data[known] == 0).sum()),
+            "wall_cells_free_at": [(round(float(a), 3), round(float(b), 3)) for a, b in zip(
+                x[known & (data == 0)], y[known & (data == 0)], strict=True)],
             "stray_obstacle_cells": int(stray.sum())}
 
 

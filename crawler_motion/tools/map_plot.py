@@ -1,6 +1,8 @@
-"""``crawler-motion map-plot``: walk to a goal in the seabed simulator (lock-step closed loop)
-and draw the elevation map with the robot, its virtual circle and its path, and the heading
-over time (the study's Fig. 8 for the crawler); prints the run's figures and timings."""
+"""``crawler-motion map-plot``: walk to a goal in the seabed simulator and draw the map and the
+path. By default on the real-time stack (every process of ``crawler-motion sim`` in real
+time: the published ``terrain_map``, `map_plot_live`); with ``--lockstep`` in the lock-step
+closed loop (one process, simulated time: the elevation map with the robot, its virtual circle
+and its path, and the heading over time, the study's Fig. 8 for the crawler, with timings)."""
 
 from __future__ import annotations
 
@@ -100,11 +102,21 @@ def main(argv: Sequence[str] | None = None) -> int:
                         metavar=("X", "Y"), help="goal in odom [m] (default 1.6 0)")
     parser.add_argument("--steering", choices=[s.value for s in Steering], default="crab")
     parser.add_argument("--limit", type=finite_number("limit", positive=True), default=120.0,
-                        help="simulated time limit [s]")
+                        help="time limit [s]")
     parser.add_argument("--out", type=Path, default=Path("terrain_map.png"))
     parser.add_argument("--heading-out", type=Path, default=None,
-                        help="also draw the heading over time here")
+                        help="also draw the heading over time here (--lockstep)")
+    parser.add_argument("--lockstep", action="store_true", help="the one-process lock-step "
+                        "loop in simulated time (a design aid) instead of the real-time stack")
+    parser.add_argument("--method", choices=("virtual_body", "apf"), default="virtual_body",
+                        help="navigator method (real-time stack)")
+    parser.add_argument("--start", nargs=3, type=finite_number("start"), default=(0, 0, 0),
+                        metavar=("X", "Y", "YAW"), help="start pose (real-time stack)")
     args = parser.parse_args(argv)
+    if not args.lockstep:
+        from crawler_motion.tools.map_plot_live import run_live
+
+        return run_live(args)
     loop = AvoidanceLoop(load_config(), args.world,
                          NavigatorSettings(steering=Steering(args.steering)))
     res = loop.run(tuple(args.goal), limit=args.limit)

@@ -9,6 +9,7 @@ a follow's mean clearance within 20 % of its stand-off.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -20,10 +21,11 @@ from crawler_motion.testing.live_cases import CASES, run_case  # noqa: E402
 
 
 def check_map(fig: dict) -> None:
-    assert fig["wall_cells_known"] >= 10, fig
-    assert fig["wall_cells_obstacle"] >= 0.9 * fig["wall_cells_known"], fig
-    assert fig["wall_cells_free"] == 0, fig
-    assert fig["stray_obstacle_cells"] == 0, fig
+    text = json.dumps(fig, default=str)
+    assert fig["wall_cells_known"] >= 10, text
+    assert fig["wall_cells_obstacle"] >= 0.9 * fig["wall_cells_known"], text
+    assert fig["wall_cells_free"] == 0, text
+    assert fig["stray_obstacle_cells"] == 0, text
 
 
 @pytest.mark.parametrize("name", ["wall_crab", "wall_turn", "u_trap_apf"])
