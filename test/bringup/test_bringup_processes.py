@@ -88,28 +88,48 @@ def alive(pid: int) -> bool:
         f"/proc/{pid}/stat").read_text().split(")")[1][:3]
 
 
-def test_sim_comes_up_and_ctrl_c_ends_every_process(tmp_path: Path, ros_domain: int) -> None:
-    run = Run(["sim", "--logs", str(tmp_path), "--split"], isolated_env(ros_domain))
+def test_sim_comes_up_without_error_and_ctrl_c_ends_every_process(tmp_path: Path,
+                                                                  ros_domain: int) -> None:
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+    node = rclpy.create_node("bringup_diagnostics")
+    errors: list[str] = []
+
+    def on_diagnostics(msg: DiagnosticArray) -> None:
+        errors.extend(f"{s.name}: {s.message}" for s in msg.status
+                      if s.level == DiagnosticStatus.ERROR)
+
+    node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 50)
+    recording = tmp_path / "run.mcap"
+    run = Run(["sim", "--logs", str(tmp_path / "logs"), "--split", "--record", str(recording)],
+              isolated_env(ros_domain))
+    names = ["seabed_sim", "driver_node", "planner_node", "terrain_mapper", "navigator",
+             "recorder"]
     try:
-        assert run.wait_for("up: 5 processes", READY_LIMIT), run.text
+        assert run.wait_for("up: 6 processes", READY_LIMIT), run.text
         pids = run.pids()
-        assert list(pids) == ["seabed_sim", "driver_node", "planner_node", "terrain_mapper",
-                              "navigator"] or set(pids) == {
-            "seabed_sim", "driver_node", "planner_node", "terrain_mapper", "navigator"}
-        assert run.lines[0].startswith("crawler-motion sim: ready: seabed_sim")
+        assert set(pids) == set(names) and run.lines[0].startswith(
+            "crawler-motion sim: ready: seabed_sim"), run.text
         assert all(alive(pid) for pid in pids.values())
         stand = subprocess.run([*CLI, "console", "--timeout", "30", "stand"],
                                env=isolated_env(ros_domain), capture_output=True, text=True,
                                timeout=90)
         assert stand.returncode == 0, stand.stdout + stand.stderr
+        end = time.monotonic() + 3.0
+        while time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.1)
+        assert not errors, errors  # a nominal start-up: no ERROR on /diagnostics
         began = time.monotonic()
         run.proc.send_signal(signal.SIGINT)
         assert run.finish(20.0) == 0, run.text
-        assert time.monotonic() - began < 10.0  # 3 s on an idle machine (docs/running.md)
+        assert time.monotonic() - began < 10.0  # 1 s on an idle machine (docs/running.md)
         assert "stopped: every process ended" in run.text and "killed" not in run.text
         assert not [name for name, pid in pids.items() if alive(pid)]
+        assert recording.stat().st_size > 0
     finally:
         run.kill()
+        node.destroy_node()
 
 
 def test_a_killed_node_holds_the_robot_and_names_the_node(tmp_path: Path,
