@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from crawler_motion.testing.live_cases import BOXES, Case, run_case
-from crawler_motion.testing.live_nav import LiveResult
+from crawler_motion.tools.live_cases import BOXES, Case, run_case
+from crawler_motion.tools.live_nav import LiveResult
 
 
 def draw_live_map(res: LiveResult, goal: tuple[float, float], world: str, out: Path) -> None:

@@ -1,5 +1,5 @@
 """Navigation on the real-time stack: every process of ``crawler-motion sim`` running in real
-time (CAN at the bus rate), the cases of `testing.live_cases` walked as a user runs them.
+time (CAN at the bus rate), the cases of `tools.live_cases` walked as a user runs them.
 
 Targets (issue "bring-up and the truthful map"): arrive within 0.10 m; the body centre never
 closer than 0.15 m to the wall; of the wall cells the final map knows, >= 90 % obstacles and
@@ -17,7 +17,7 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 pytest.importorskip("mujoco")
 
-from crawler_motion.testing.live_cases import CASES, run_case  # noqa: E402
+from crawler_motion.tools.live_cases import CASES, run_case  # noqa: E402
 
 
 def check_map(fig: dict) -> None:

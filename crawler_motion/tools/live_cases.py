@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from crawler_motion.testing.live_nav import LiveNav, LiveResult
+from crawler_motion.tools.live_nav import LiveNav, LiveResult
 
 #: Wall boxes of the shipped worlds: (x0, x1, y0, y1) [m].
 BOXES: dict[str, tuple[tuple[float, float, float, float], ...]] = {
