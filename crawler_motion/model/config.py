@@ -25,6 +25,7 @@ from crawler_motion.model.gait_config import (  # re-exported: part of the loade
 from crawler_motion.model.medium import MediumConfig, parse_medium
 from crawler_motion.model.pose_limits import BodyPoseConfig, parse_body_pose
 from crawler_motion.model.yaml_values import number as _number
+from crawler_motion.model.yaml_values import number_in
 from crawler_motion.model.yaml_values import positive as _positive
 from crawler_motion.model.yaml_values import section as _section
 
@@ -134,6 +135,19 @@ class Config:
     source: str = "<memory>"
     #: The medium as the body planner sees it (section ``medium``; `crawler_motion.model.medium`).
     medium: MediumConfig = field(default_factory=MediumConfig)
+    #: Width of the survey or cleaning tool under the hull, centred on the body [m] (section
+    #: ``tool``): what a mission's ``cover`` task counts as covered along the walked path.
+    tool_width: float = 0.16
+
+
+def parse_tool_width(data: Any, where: str) -> float:
+    """The ``tool`` section's ``width`` [m] in (0, 1] (the default when the section is
+    absent)."""
+    if data is None:
+        return Config.tool_width
+    if not isinstance(data, Mapping) or set(data) != {"width"}:
+        raise ConfigError(f"{where} must be a mapping with the one key width [m], got {data!r}")
+    return number_in(data["width"], f"{where}.width", 0.0, 1.0, "m", above=True)
 
 
 def _per_leg(section: Mapping[str, Any], legs: tuple[str, ...], what: str) -> list[Any]:
@@ -237,7 +251,9 @@ def load_config(path: str | Path | None = None) -> Config:
         robot = with_calibration(robot, file.parent / str(calibration))
     body_pose = parse_body_pose(_section(data, "body_pose", str(file)), f"{file}: body_pose")
     medium = parse_medium(data.get("medium"), f"{file}: medium")
-    return Config(robot=robot, gait=gait, body_pose=body_pose, source=str(file), medium=medium)
+    tool_width = parse_tool_width(data.get("tool"), f"{file}: tool")
+    return Config(robot=robot, gait=gait, body_pose=body_pose, source=str(file), medium=medium,
+                  tool_width=tool_width)
 
 
 @dataclass(frozen=True)

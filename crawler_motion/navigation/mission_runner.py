@@ -40,7 +40,7 @@ from crawler_motion.navigation.apf_navigator import (
     planning_grid,
 )
 from crawler_motion.navigation.mission import Mission, Task, TaskKind
-from crawler_motion.navigation.navigator import NavState, TerrainView
+from crawler_motion.navigation.navigator import NavState, TerrainView, goal_error
 
 #: How often the covered share is measured while covering [s].
 COVERED_PERIOD = 1.0
@@ -207,6 +207,10 @@ class MissionRunner:
                now: float) -> None:
         self._started, self._task_began, self.progress = True, now, 0.0
         self._tracker = None
+        far = self._too_far(task, xy)
+        if far is not None:
+            self._fail(f"task {self.index + 1} ({task.kind.value}): {far}")
+            return
         if task.kind is TaskKind.GOTO:
             self.nav.set_goal(task.values["x"], task.values["y"], now)
         elif task.kind is TaskKind.HOME:
@@ -221,6 +225,20 @@ class MissionRunner:
             self._tracker = CoverageTracker(view.resolution, self.tool_width)
             self._tracker.mark(xy)
             self._next_end(task, view, disc, now)
+
+    def _too_far(self, task: Task, xy: np.ndarray) -> str | None:
+        """Why the task's goal or area lies beyond the navigator's ``max_goal_distance``."""
+        limit = self.nav.settings.max_goal_distance
+        if task.kind is TaskKind.GOTO:
+            return goal_error(task.values["x"], task.values["y"], tuple(xy), limit)
+        if task.kind is TaskKind.HOME:
+            return goal_error(float(self.start[0]), float(self.start[1]), tuple(xy), limit)
+        if task.kind is TaskKind.COVER:
+            far = max(float(np.hypot(*(np.asarray(p) - xy))) for p in task.polygon)
+            if far > limit:
+                return (f"the area reaches {far:.3g} m from the body, beyond max_goal_distance "
+                        f"{limit:g} m; go nearer first")
+        return None
 
     def _progress(self, task: Task) -> None:
         if task.kind is TaskKind.FOLLOW and self.nav.command is not None:

@@ -40,6 +40,7 @@ from crawler_motion.model.rotations import quaternion_matrix, yaw_of
 from crawler_motion.navigation.apf_navigator import ApfNavigator, FollowCommand
 from crawler_motion.navigation.body import envelope_radius, virtual_radius
 from crawler_motion.navigation.methods import make_navigator
+from crawler_motion.navigation.mission_topics import MissionTopics
 from crawler_motion.navigation.navigator import Method, NavState, goal_error
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
 from crawler_motion.navigation.planner_watch import RefusalWatch
@@ -94,6 +95,8 @@ class NavigatorNode(Node):
         self._refusal_status = Throttle(REFUSAL_STATUS_PERIOD)
         self.create_subscription(String, "planner_status", self._on_planner_status, latched)
         self.create_service(Trigger, "~/cancel", self._on_cancel)
+        self.missions = MissionTopics(self, self.nav, self.cfg.tool_width, lambda: self._pose,
+                                      self._refuse, self._planner.start)
         self.create_timer(STATUS_PERIOD, lambda: self._publish_status(force=True))
         self._publish_status(force=True)
 
@@ -118,6 +121,7 @@ class NavigatorNode(Node):
             self._refuse(why)
             return
         try:
+            self.missions.cancel("replaced by a goal")
             self.nav.set_goal(x, y, time.monotonic())
         except CommandError as exc:
             self._refuse(str(exc))
@@ -135,6 +139,7 @@ class NavigatorNode(Node):
         except CommandError as exc:
             self._refuse(str(exc))
             return
+        self.missions.cancel("replaced by a follow command")
         self.nav.set_follow(command, time.monotonic())
         self._planner.start()
         self.get_logger().info(f"follow {command.length:.3f} m, structure {command.side.value}")
@@ -168,6 +173,7 @@ class NavigatorNode(Node):
         self._heights = read_heights(msg)
 
     def _on_cancel(self, _req: Trigger.Request, resp: Trigger.Response) -> Trigger.Response:
+        self.missions.cancel()
         if self.nav.cancel():
             self._stop()
         resp.success, resp.message = True, "cancelled; the robot stands"
@@ -178,7 +184,7 @@ class NavigatorNode(Node):
         self._cmd.publish(Twist())
 
     def _on_map(self, msg: OccupancyGrid) -> None:
-        if self.nav.state is not NavState.ACTIVE:
+        if self.nav.state is not NavState.ACTIVE and not self.missions.running:
             return
         if self._pose is None or time.monotonic() - self._pose_at > self.odom_timeout:
             if self.nav.reason != "waiting for odometry":
@@ -195,7 +201,12 @@ class NavigatorNode(Node):
             self.get_logger().warning(str(exc), throttle_duration_sec=1.0)
             return
         self.nav.reason = ""
+        disc = self.radius + self.nav.settings.margin
+        ended = self.missions.before(self._pose, view, disc)
         out = self.nav.step(self._pose, self.radius, view, time.monotonic())
+        ended = self.missions.after(view, disc) or ended
+        if ended and out.twist is None:
+            self._stop()  # a mission that ended in this cycle leaves the robot standing
         if out.twist is not None:
             self._cmd.publish(Twist(linear=_vec(out.twist[0], out.twist[1]),
                                     angular=_vec(0.0, 0.0, out.twist[2])))
