@@ -271,22 +271,32 @@ class MissionRunner:
 
     def _clear_points(self, task: Task, view: TerrainView, disc: float,
                       y: float) -> np.ndarray:
-        """The points of the slice at ``y`` inside the area where the disc is ρ_o clear of the
-        obstacles of this map, by x."""
+        """The slice at ``y`` on this map: for each x (half a cell apart) the point inside
+        the area where the disc is ρ_o clear of the obstacles, at ``y`` or shifted by the
+        least offset up to half the spacing (the slice bends round an obstacle to cover up to
+        it); x where none is clear are left out. Sorted by x."""
         poly = np.asarray(task.polygon)
-        xs = np.arange(poly[:, 0].min(), poly[:, 0].max() + 1e-9, view.resolution / 2)
-        pts = np.column_stack([xs, np.full_like(xs, y)])
-        pts = pts[inside_polygon(pts, task.polygon)]
-        if not len(pts):
-            return pts
-        grid = planning_grid(view, pts, disc + 0.5)
+        step = view.resolution / 2
+        xs = np.arange(poly[:, 0].min(), poly[:, 0].max() + 1e-9, step)
+        reach = np.arange(step, task.values["spacing"] / 2 + 1e-9, step)
+        offsets = np.concatenate([[0.0], np.ravel(np.column_stack([reach, -reach]))])
+        cand = np.stack([np.column_stack([xs, np.full_like(xs, y + d)]) for d in offsets])
+        flat = cand.reshape(-1, 2)
+        ok = inside_polygon(flat, task.polygon)
+        if not ok.any():
+            return np.zeros((0, 2))
+        grid = planning_grid(view, flat[ok], disc + 0.5)
         fld = ObstacleField(grid, disc, FieldSettings(standoff=self.nav.settings.standoff))
-        return pts[fld.clearance(pts)[0] >= fld.settings.standoff]
+        clear = np.zeros(len(flat), dtype=bool)
+        clear[ok] = fld.clearance(flat[ok])[0] >= fld.settings.standoff
+        clear = clear.reshape(len(offsets), len(xs))
+        has = clear.any(axis=0)
+        first = np.argmax(clear, axis=0)  # the least offset that is clear, per x
+        return cand[first[has], np.flatnonzero(has)]
 
     def _next_end(self, task: Task, view: TerrainView, disc: float, now: float) -> None:
         """Send the navigator to the next waypoint still clear on this map: along slice k
-        (direction +x for even k), the first clear point at least `WAYPOINT_STEP` beyond the
-        last one reached, else the slice's last clear point; then the next slice."""
+        (direction +x for even k) by `_waypoint`; then the next slice."""
         slices = self._slices(task)
         while self._slices_done < len(slices):
             k = self._slices_done
@@ -295,19 +305,36 @@ class MissionRunner:
             along = pts[:, 0] * sign if len(pts) else np.zeros(0)
             order = np.argsort(along)
             pts, along = pts[order], along[order]
-            if self._along is None:
-                target = pts[0] if len(pts) else None
-            else:
-                ahead = np.flatnonzero(along >= self._along + WAYPOINT_STEP - 1e-9)
-                tol = self.nav.settings.goal_tolerance
-                last_ahead = len(pts) and along[-1] > self._along + tol
-                target = pts[ahead[0]] if len(ahead) else (pts[-1] if last_ahead else None)
+            target = self._waypoint(pts, along, view.resolution)
             if target is not None:
                 self._goal = target
                 self.nav.set_goal(float(target[0]), float(target[1]), now)
                 return
             self._slices_done, self._along = self._slices_done + 1, None
         self._next(now)
+
+    def _waypoint(self, pts: np.ndarray, along: np.ndarray, res: float) -> np.ndarray | None:
+        """The next waypoint among the slice's clear points ``pts`` (sorted by ``along``, the
+        signed x): the first one at the slice's start; then `WAYPOINT_STEP` further on, or
+        sooner the last clear point before a gap (an obstacle: the tool reaches up to it),
+        or past a gap the first clear point after it; None at the slice's end."""
+        if not len(pts):
+            return None
+        if self._along is None:
+            return pts[0]
+        gap = res / 2 + 1e-9  # clear points closer than this are one run (no obstacle between)
+        idx = np.flatnonzero(along > self._along + 1e-9)
+        if not len(idx):
+            return None
+        j = int(idx[0])
+        if along[j] - self._along > gap:  # a gap right after the last waypoint: jump it
+            return pts[j]
+        step_to = self._along + WAYPOINT_STEP - 1e-9
+        while j + 1 < len(pts) and along[j] < step_to and along[j + 1] - along[j] <= gap:
+            j += 1
+        if along[j] - self._along <= self.nav.settings.goal_tolerance:  # the run ends here
+            return pts[j + 1] if j + 1 < len(pts) else None
+        return pts[j]
 
     def _cover_after(self, task: Task, view: TerrainView, disc: float, now: float) -> None:
         if self._tracker is not None and (now - self._covered_at >= COVERED_PERIOD

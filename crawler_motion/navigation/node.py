@@ -205,6 +205,9 @@ class NavigatorNode(Node):
         ended = self.missions.before(self._pose, view, disc)
         out = self.nav.step(self._pose, self.radius, view, time.monotonic())
         ended = self.missions.after(view, disc) or ended
+        if out.twist is not None and self.nav.state is NavState.ACTIVE and not any(out.twist):
+            # the mission sent the next waypoint in the same cycle: walk on, no stop
+            out = self.nav.step(self._pose, self.radius, view, time.monotonic())
         if ended and out.twist is None:
             self._stop()  # a mission that ended in this cycle leaves the robot standing
         if out.twist is not None:

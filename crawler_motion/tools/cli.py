@@ -204,6 +204,8 @@ _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
      "a recording as PNG plots and an index.html"),
     ("view", "crawler_motion.recording.view",
      "serve the running stack live to Foxglove (WebSocket)"),
+    ("mission", "crawler_motion.tools.mission",
+     "send a mission file (goto, follow, cover, home) to the navigator and follow it"),
     ("sim", "crawler_motion.tools.bringup",
      "bring the simulated robot up: simulator, controller, mapper, navigator; Ctrl-C stops"),
     ("up", "crawler_motion.tools.bringup:main_up",

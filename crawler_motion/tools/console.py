@@ -68,6 +68,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("y", type=finite_number("y"), help="goal y [m]")
     p.add_argument("--frame", default="odom", help="frame of the goal (default odom)")
     sub.add_parser("cancel", help="cancel the navigator's goal (the robot stands)")
+    p = sub.add_parser("mission", help="run a mission file (crawler-motion mission), or "
+                       "'mission cancel'")
+    p.add_argument("file", help="the mission YAML, or cancel")
     p = sub.add_parser("send", help="send one raw JSON gait command")
     p.add_argument("json", help="the JSON object, e.g. '{\"command\": \"stand\"}'")
     return parser
@@ -290,6 +293,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
     else:
         command = command_from_args(args)
+    if args.action == "mission":
+        from crawler_motion.tools.mission import main as mission_main
+
+        return mission_main([args.file, *ros])  # a mission's own time limit, not --timeout
     if args.action in ("goto", "cancel"):
         from crawler_motion.tools.goto import run
 

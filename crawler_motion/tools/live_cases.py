@@ -25,6 +25,7 @@ BOXES: dict[str, tuple[tuple[float, float, float, float], ...]] = {
     "u_trap": ((0.50, 0.60, -0.35, 0.35), (-0.10, 0.50, 0.30, 0.40),
                (-0.10, 0.50, -0.40, -0.30)),
     "long_wall": ((-0.40, 2.60, 0.475, 0.575),),
+    "harbour": ((-0.40, 3.00, 0.475, 0.675), (1.25, 1.55, -1.75, -1.45)),
 }
 
 
@@ -150,3 +151,56 @@ def run_case(case: Case, logs: Path, domain: int | None = None
     finally:
         nav.close()
     return res, figures(case, res, radius)
+
+
+def task_path(res: LiveResult, index: int) -> np.ndarray:
+    """The path samples ``(k, 3)`` while task ``index`` (1-based) ran, from the times of the
+    mission statuses."""
+    times = [(m["received"], m.get("task_index")) for m in res.mission if "received" in m]
+    start = min((t for t, i in times if i == index), default=None)
+    end = min((t for t, i in times if i is not None and i > index), default=np.inf)
+    if start is None:
+        return np.zeros((0, 3))
+    keep = (res.path[:, 0] >= start) & (res.path[:, 0] < end)
+    return res.path[keep]
+
+
+def mission_figures(world: str, res: LiveResult, start: tuple[float, float],
+                    kinds: list[str]) -> dict[str, Any]:
+    """A mission's figures: outcome, time, distance, covered share, home error, follow
+    clearance (from the map, disc from the navigator), least body-centre distance to the
+    obstacles, contact ticks, CPU per process."""
+    xy = res.path[:, 1:3]
+    last = res.mission[-1] if res.mission else {}
+    covers = [m["covered"] for m in res.mission if m.get("task_kind") == "cover"
+              and m.get("covered") is not None]
+    out: dict[str, Any] = {"state": res.state, "reason": res.reason,
+                           "duration_s": res.duration, "distance_m": last.get("distance"),
+                           "covered": covers[-1] if covers else None,
+                           "home_error_m": float(np.hypot(*(xy[-1] - np.array(start)))),
+                           "min_centre_distance_m": float(box_distance(world, xy).min()),
+                           "contact_ticks": res.contacts}
+    if "follow" in kinds and res.map_data is not None:
+        seg = task_path(res, kinds.index("follow") + 1)[:, 1:3]
+        if len(seg) > 5:
+            seg = seg[len(seg) // 5:]
+            out["follow_clearance_m"] = float(map_distance(res, seg).mean()
+                                              - (res.disc_radius or 0.325))
+    out.update({f"cpu_{k}_pct": v for k, v in res.cpu.items()})
+    return out
+
+
+def run_mission(world: str, text: str, logs: Path, domain: int | None = None,
+                timeout: float = 1800.0) -> tuple[LiveResult, dict[str, Any]]:
+    """Walk a mission's text on the real-time stack (navigator method apf; rclpy
+    initialised by the caller)."""
+    from crawler_motion.navigation.mission import parse_mission
+
+    kinds = [t.kind.value for t in parse_mission(text).tasks]
+    nav = LiveNav(logs, world, params={"navigator": {"method": "apf"}}, domain=domain)
+    try:
+        nav.start()
+        res = nav.mission(text, timeout)
+    finally:
+        nav.close()
+    return res, mission_figures(world, res, (0.0, 0.0), kinds)

@@ -25,8 +25,9 @@ from crawler_motion.testing.bus import BusSpec
 from crawler_motion.testing.stack import isolated_env
 from crawler_motion.tools.procstat import cpu_seconds
 
-#: Navigation states that end a goal or a follow.
+#: Navigation states that end a goal or a follow, and mission states that end a mission.
 FINAL = ("ARRIVED", "FAILED", "IDLE")
+MISSION_FINAL = ("DONE", "FAILED", "CANCELLED", "REFUSED")
 #: Diagnostics key of the simulator's contact count (`sim.seabed.node.BODY_CONTACTS_KEY`).
 CONTACTS_KEY = "hull or leg contact ticks"
 
@@ -47,6 +48,7 @@ class LiveResult:
     cpu: dict[str, float] = field(default_factory=dict)
     duration: float = 0.0
     disc_radius: float | None = None  # the navigator's mean disc radius (apf) [m]
+    mission: list[dict[str, Any]] = field(default_factory=list)  # mission_status received
 
     def cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
         """x and y [m] of every map cell's centre."""
@@ -72,11 +74,14 @@ class _Watch:
         self.status: dict[str, Any] = {}
         self.contacts = 0
         self.discs: list[float] = []  # the navigator's disc radius while active [m]
+        self.mission: dict[str, Any] = {}
+        self.missions: list[dict[str, Any]] = []  # every mission_status received
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         node.create_subscription(Odometry, "odom", self._odom, 10)
         node.create_subscription(OccupancyGrid, "terrain_map", self._map, 2)
         node.create_subscription(String, "navigation_status", self._status, latched)
         node.create_subscription(DiagnosticArray, "/diagnostics", self._diag, 10)
+        node.create_subscription(String, "mission_status", self._mission, latched)
 
     def _odom(self, msg: Any) -> None:
         p = msg.pose.pose.position
@@ -93,6 +98,13 @@ class _Watch:
             return
         if self.status.get("state") == "ACTIVE" and self.status.get("disc_radius"):
             self.discs.append(float(self.status["disc_radius"]))
+
+    def _mission(self, msg: Any) -> None:
+        try:
+            self.mission = json.loads(msg.data)
+        except ValueError:
+            return
+        self.missions.append({**self.mission, "received": time.monotonic()})
 
     def _diag(self, msg: Any) -> None:
         for status in msg.status:
@@ -167,7 +179,14 @@ class LiveNav:
         text = json.dumps({"length": float(length), "side": side})
         return self._run(lambda: pub.publish(String(data=text)), timeout)
 
-    def _run(self, send: Any, timeout: float) -> LiveResult:
+    def mission(self, text: str, timeout: float) -> LiveResult:
+        """Send a mission's text and wait for its end (`LiveResult.state`: the mission's)."""
+        from std_msgs.msg import String
+
+        pub = self.node.create_publisher(String, "mission", 10)
+        return self._run(lambda: pub.publish(String(data=text)), timeout, mission=True)
+
+    def _run(self, send: Any, timeout: float, mission: bool = False) -> LiveResult:
         w = self.watch
         time.sleep(0.5)  # publisher matched
         cpu0 = {n: cpu_seconds(p.pid) for n, p in self.sup.procs.items()}
@@ -177,11 +196,14 @@ class LiveNav:
         w.discs.clear()
         send()
         end = began + timeout
+        def state() -> Any:
+            return w.mission.get("state") if mission else w.status.get("state")
+
         while time.monotonic() < end:
-            if w.status.get("state") == "ACTIVE":
+            if state() in ("ACTIVE", "RUNNING"):
                 break
             time.sleep(0.05)
-        while time.monotonic() < end and w.status.get("state") not in FINAL:
+        while time.monotonic() < end and state() not in (*FINAL, *MISSION_FINAL):
             if self.sup.exited() is not None:
                 break
             time.sleep(0.1)
@@ -189,7 +211,11 @@ class LiveNav:
         cpu = {n: 100.0 * ((cpu_seconds(p.pid) or 0.0) - (cpu0[n] or 0.0)) / wall
                for n, p in self.sup.procs.items()}
         time.sleep(1.5)  # the map after the stop
-        return self._result(wall, cpu)
+        res = self._result(wall, cpu)
+        if mission:
+            res.state, res.reason = str(w.mission.get("state")), str(w.mission.get("reason"))
+            res.mission = list(w.missions)
+        return res
 
     def _result(self, wall: float, cpu: dict[str, float]) -> LiveResult:
         w = self.watch
