@@ -12,12 +12,8 @@ import pytest
 from crawler_motion.errors import CommandError
 from crawler_motion.navigation.apf_navigator import ApfNavigator
 from crawler_motion.navigation.mission import TaskKind, parse_mission
-from crawler_motion.navigation.mission_runner import (
-    CoverageTracker,
-    MissionRunner,
-    MissionState,
-    inside_polygon,
-)
+from crawler_motion.navigation.mission_cover import CoverageTracker, inside_polygon
+from crawler_motion.navigation.mission_runner import MissionRunner, MissionState
 from crawler_motion.navigation.navigator import NavigatorSettings, NavState, TerrainView
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "config" / "missions" / "harbour.yaml"
