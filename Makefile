@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-all lint bench fuzz soak plots clean calibration-figures
+.PHONY: demo test test-all lint bench fuzz soak plots mission clean calibration-figures
 
 $(STAMP): requirements.txt setup.py
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,10 @@ bench: $(STAMP)
 # The whole stack walking for 10 minutes on the cross-process bus; exit 1 if anything was lost.
 soak: $(STAMP)
 	$(VENV)/bin/crawler-motion soak --rate 200 --duration 600
+
+# The shipped harbour mission on the real-time stack (about 10 minutes): figures printed.
+mission: $(STAMP)
+	$(VENV)/bin/crawler-motion mission config/missions/harbour.yaml --sim harbour
 
 plots: $(STAMP)
 	$(VENV)/bin/crawler-motion plot --out plots

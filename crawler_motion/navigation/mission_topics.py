@@ -1,5 +1,7 @@
 """The navigator's mission topics: ``mission`` in, ``mission_status`` out (ROS side).
 
+Missions walk on the improved potential field (`ApfNavigator`) whatever the node's ``method``
+(with ``virtual_body``, an apf navigator of the same settings steers while a mission runs).
 ``mission`` (std_msgs/String): a mission file's text (`mission.parse_mission`); a bad one is
 refused through the navigator's refusal path (counted, logged, in ``navigation_status``) and
 ``mission_status`` says why (state ``REFUSED``). A new mission replaces a running one.
@@ -38,7 +40,10 @@ class MissionTopics:
     def __init__(self, node: Node, nav: Any, tool_width: float,
                  pose: Callable[[], tuple[float, float, float] | None],
                  refuse: Callable[[str], None], on_start: Callable[[], None]) -> None:
-        self.node, self.nav, self.tool_width = node, nav, tool_width
+        # missions walk on the improved potential field whatever the node's method: its own
+        # apf navigator (same settings) when the node's is another method
+        self.nav = nav if isinstance(nav, ApfNavigator) else ApfNavigator(nav.settings)
+        self.node, self.tool_width = node, tool_width
         self.pose, self.refuse, self.on_start = pose, refuse, on_start
         self.runner: MissionRunner | None = None
         self._count = 0
@@ -55,9 +60,6 @@ class MissionTopics:
         return self.runner is not None and self.runner.state is MissionState.RUNNING
 
     def _on_mission(self, msg: String) -> None:
-        if not isinstance(self.nav, ApfNavigator):
-            self._refuse("missions need the navigator's method apf")
-            return
         pose = self.pose()
         if pose is None:
             self._refuse("no odometry yet: the mission's home is unknown")

@@ -145,9 +145,14 @@ class NavigatorNode(Node):
         self.get_logger().info(f"follow {command.length:.3f} m, structure {command.side.value}")
         self._publish_status()
 
+    @property
+    def _nav(self) -> Any:
+        """The navigator steering now: the mission's while one runs."""
+        return self.missions.nav if self.missions.running else self.nav
+
     def _on_planner_status(self, msg: String) -> None:
         reason = self._planner.update(msg.data)
-        if reason is not None and self.nav.fail(reason):
+        if reason is not None and self._nav.fail(reason):
             self._stop()
             self.get_logger().error(f"goal failed: {reason}")
             self._publish_status()
@@ -173,8 +178,9 @@ class NavigatorNode(Node):
         self._heights = read_heights(msg)
 
     def _on_cancel(self, _req: Trigger.Request, resp: Trigger.Response) -> Trigger.Response:
+        nav, mission = self._nav, self.missions.running
         self.missions.cancel()
-        if self.nav.cancel():
+        if nav.cancel() or mission:
             self._stop()
         resp.success, resp.message = True, "cancelled; the robot stands"
         self._publish_status()
@@ -184,12 +190,13 @@ class NavigatorNode(Node):
         self._cmd.publish(Twist())
 
     def _on_map(self, msg: OccupancyGrid) -> None:
-        if self.nav.state is not NavState.ACTIVE and not self.missions.running:
+        nav = self._nav
+        if nav.state is not NavState.ACTIVE and not self.missions.running:
             return
         if self._pose is None or time.monotonic() - self._pose_at > self.odom_timeout:
-            if self.nav.reason != "waiting for odometry":
+            if nav.reason != "waiting for odometry":
                 self._stop()
-                self.nav.reason = "waiting for odometry"
+                nav.reason = "waiting for odometry"
                 self._publish_status()
             return
         info = msg.info
@@ -200,14 +207,14 @@ class NavigatorNode(Node):
         except CommandError as exc:
             self.get_logger().warning(str(exc), throttle_duration_sec=1.0)
             return
-        self.nav.reason = ""
-        disc = self.radius + self.nav.settings.margin
+        nav.reason = ""
+        disc = self.radius + nav.settings.margin
         ended = self.missions.before(self._pose, view, disc)
-        out = self.nav.step(self._pose, self.radius, view, time.monotonic())
+        out = nav.step(self._pose, self.radius, view, time.monotonic())
         ended = self.missions.after(view, disc) or ended
-        if out.twist is not None and self.nav.state is NavState.ACTIVE and not any(out.twist):
+        if out.twist is not None and nav.state is NavState.ACTIVE and not any(out.twist):
             # the mission sent the next waypoint in the same cycle: walk on, no stop
-            out = self.nav.step(self._pose, self.radius, view, time.monotonic())
+            out = nav.step(self._pose, self.radius, view, time.monotonic())
         if ended and out.twist is None:
             self._stop()  # a mission that ended in this cycle leaves the robot standing
         if out.twist is not None:
@@ -216,7 +223,7 @@ class NavigatorNode(Node):
         self._publish_status()
 
     def _publish_status(self, force: bool = False) -> None:
-        status = {**self.nav.status(), "radius": round(self.radius, 4),
+        status = {**self._nav.status(), "radius": round(self.radius, 4),
                   "refusals": self.refusals, "last_refusal": self.last_refusal}
         text = json.dumps(status)
         if force or text != self._last_status:

@@ -192,12 +192,12 @@ def mission_figures(world: str, res: LiveResult, start: tuple[float, float],
 
 def run_mission(world: str, text: str, logs: Path, domain: int | None = None,
                 timeout: float = 1800.0) -> tuple[LiveResult, dict[str, Any]]:
-    """Walk a mission's text on the real-time stack (navigator method apf; rclpy
+    """Walk a mission's text on the real-time stack with the navigator's defaults (rclpy
     initialised by the caller)."""
     from crawler_motion.navigation.mission import parse_mission
 
     kinds = [t.kind.value for t in parse_mission(text).tasks]
-    nav = LiveNav(logs, world, params={"navigator": {"method": "apf"}}, domain=domain)
+    nav = LiveNav(logs, world, domain=domain)
     try:
         nav.start()
         res = nav.mission(text, timeout)

@@ -20,7 +20,7 @@ from typing import Any
 
 import yaml
 
-from crawler_motion.errors import CommandError
+from crawler_motion.errors import CommandError, CrawlerMotionError
 from crawler_motion.navigation.mission import parse_mission
 from crawler_motion.runtime.cli_args import OneLineParser, finite_number, split_ros_args
 
@@ -135,6 +135,33 @@ class MissionClient:
         return 2
 
 
+def run_simulated(world: str, text: str, timeout: float) -> int:
+    """The mission on a simulated stack of its own (a fresh ROS domain); its figures."""
+    import random
+    import tempfile
+
+    import rclpy
+
+    from crawler_motion.bringup.checks import check_world
+    from crawler_motion.tools.live_cases import run_mission
+
+    try:
+        check_world(world)
+    except CrawlerMotionError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 1
+    domain = random.randint(102, 200)
+    rclpy.init(domain_id=domain)
+    try:
+        with tempfile.TemporaryDirectory(prefix="mission-") as logs:
+            res, fig = run_mission(world, text, Path(logs), domain, timeout)
+    finally:
+        rclpy.try_shutdown()
+    for key, value in fig.items():
+        print(f"{key}: {value:.4g}" if isinstance(value, float) else f"{key}: {value}")
+    return EXIT.get(res.state, 2)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; the exit status."""
     own, ros = split_ros_args(sys.argv[1:] if argv is None else argv)
@@ -142,6 +169,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("mission", help="the mission file (YAML), or 'cancel'")
     parser.add_argument("--timeout", type=finite_number("timeout", positive=True),
                         default=7200.0, help="give up (and cancel) after [s] (default 7200)")
+    parser.add_argument("--sim", metavar="WORLD", default=None, help="bring the simulated "
+                        "stack up in WORLD first (as crawler-motion sim), run the mission, print "
+                        "its figures and stop everything")
     args = parser.parse_args(own)
     text = mid = ""
     if args.mission != "cancel":
@@ -150,6 +180,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except CommandError as exc:
             print(f"{PROG}: error: {exc}", file=sys.stderr)
             return 1
+    if args.sim is not None:
+        return run_simulated(args.sim, text, args.timeout)
     import rclpy
 
     rclpy.init(args=[PROG, *ros])
