@@ -431,3 +431,30 @@ def test_invalid_yaml(text, expected, tmp_path):
     with pytest.raises(ConfigError, match=expected) as err:
         load_config(path)
     assert str(path) in str(err.value)
+
+
+@pytest.mark.parametrize("section, expected", [
+    (None, 0.16), ({"width": 0.16}, 0.16), ({"width": 1.0}, 1.0), ({"width": 0.001}, 0.001),
+])
+def test_the_tool_width(section, expected):
+    from crawler_motion.model.config import parse_tool_width
+
+    assert parse_tool_width(section, "robot.yaml: tool") == expected
+
+
+@pytest.mark.parametrize("section, words", [
+    ({"width": 0.0}, "tool.width must be a number in (0, 1] m"),
+    ({"width": 1.5}, "in (0, 1] m, got 1.5"), ({"width": "wide"}, "got 'wide'"),
+    ({"width": 0.1, "depth": 2}, "the one key width"), (0.2, "the one key width"),
+])
+def test_a_bad_tool_width_is_refused_with_the_key(section, words):
+    from crawler_motion.errors import ConfigError
+    from crawler_motion.model.config import parse_tool_width
+
+    with pytest.raises(ConfigError) as exc:
+        parse_tool_width(section, "robot.yaml: tool")
+    assert words in str(exc.value)
+
+
+def test_the_shipped_tool_is_as_wide_as_the_hull():
+    assert load_config().tool_width == 0.16
