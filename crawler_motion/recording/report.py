@@ -1,5 +1,7 @@
 """``crawler-motion report RUN.mcap -o REPORT/``: a recording as PNG plots and an index.html.
 
+With a mission recorded (``mission_status``): a table per task and the map with the walked
+path and the covered cells first (`report_mission`).
 The plots: commanded against measured joints, the tracking error, the foot paths in
 ``base_link`` (forward kinematics of the measured joints), the body's path from
 ``odom`` over the terrain map with the goals, planner and driver states over time, and the
@@ -20,7 +22,7 @@ import numpy as np
 
 from crawler_motion.errors import CrawlerMotionError
 from crawler_motion.model.config import RobotConfig, load_config
-from crawler_motion.recording import report_plots, series
+from crawler_motion.recording import report_mission, report_plots, series
 from crawler_motion.recording.reader import Recording, read_recording
 from crawler_motion.runtime.cli_args import OneLineParser
 
@@ -49,10 +51,13 @@ def summary(rec: Recording, err: series.Joints) -> list[tuple[str, str]]:
     return rows
 
 
-def write_report(rec: Recording, out: Path, robot: RobotConfig | None = None) -> Path:
-    """Every picture and ``index.html`` into ``out`` for ``robot`` (the shipped configuration
-    when None); returns the index."""
-    robot = robot if robot is not None else load_config().robot
+def write_report(rec: Recording, out: Path, robot: RobotConfig | None = None,
+                 tool_width: float | None = None) -> Path:
+    """Every picture and ``index.html`` into ``out`` for ``robot`` and the mission tool's
+    ``tool_width`` [m] (the shipped configuration's when None); returns the index."""
+    cfg = load_config() if robot is None or tool_width is None else None
+    robot = robot if robot is not None else cfg.robot  # type: ignore[union-attr]
+    width = tool_width if tool_width is not None else cfg.tool_width  # type: ignore[union-attr]
     names = list(robot.joint_names)
     cmd = series.joints(rec, "joint_commands", names)
     meas = series.joints(rec, "joint_states", names)
@@ -69,15 +74,26 @@ def write_report(rec: Recording, out: Path, robot: RobotConfig | None = None) ->
         ("Faults from /diagnostics",
          report_plots.draw_faults(series.faults(rec), out / "faults.png")),
     ]
+    tasks = report_mission.task_rows(rec)
+    if tasks:
+        pictures.insert(0, ("Mission: map, covered cells, walked path",
+                            report_mission.draw_mission(rec, out / "mission.png", width)))
     index = out / INDEX
-    index.write_text(render_html(rec, summary(rec, err), pictures), encoding="utf-8")
+    index.write_text(render_html(rec, summary(rec, err), pictures, tasks), encoding="utf-8")
     return index
 
 
 def render_html(rec: Recording, rows: list[tuple[str, str]],
-                pictures: list[tuple[str, Path | None]]) -> str:
-    """The self-contained index page (pictures by relative file name)."""
+                pictures: list[tuple[str, Path | None]],
+                tasks: Sequence[tuple[str, ...]] = ()) -> str:
+    """The self-contained index page (pictures by relative file name; the mission's task
+    table when ``tasks``)."""
     esc = html.escape
+    mission = "" if not tasks else (
+        "<h2>Mission tasks</h2><table><tr>"
+        + "".join(f"<th>{esc(h)}</th>" for h in report_mission.HEADER) + "</tr>"
+        + "".join("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in row) + "</tr>"
+                  for row in tasks) + "</table>")
     table = "\n".join(f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in rows)
     topics = "\n".join(f"<tr><td>{esc(t)}</td><td>{esc(rec.types.get(t, ''))}</td>"
                        f"<td>{len(m)}</td></tr>" for t, m in sorted(rec.messages.items()))
@@ -93,6 +109,7 @@ def render_html(rec: Recording, rows: list[tuple[str, str]],
 img{{max-width:100%}}td,th{{padding:0 .6em}}</style></head><body>
 <h1>Run report: {esc(rec.path.name)}</h1>
 <table>{table}</table>
+{mission}
 {figures}
 <h2>Topics</h2><table><tr><th>topic</th><th>type</th><th>messages</th></tr>{topics}</table>
 <h2>Fault log (first 200)</h2>

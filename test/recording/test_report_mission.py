@@ -1,0 +1,75 @@
+"""The mission part of the run report, from a synthetic recording: a row per task with time,
+distance, covered share, clearance, contacts, faults and outcome; the picture; none without a
+mission."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from types import SimpleNamespace as NS
+
+import numpy as np
+
+from crawler_motion.recording.reader import Recording
+from crawler_motion.recording.report import write_report
+from crawler_motion.recording.report_mission import HEADER, draw_mission, task_rows
+
+SEC = 1_000_000_000
+
+
+def odom(x: float, y: float) -> NS:
+    return NS(pose=NS(pose=NS(position=NS(x=x, y=y, z=0.07))))
+
+
+def status(index: int, kind: str, state: str, distance: float, covered=None, reason=""):
+    return NS(data=json.dumps({"mission": "m", "task_index": index, "tasks": 2,
+                               "task_kind": kind, "state": state, "distance": distance,
+                               "covered": covered, "reason": reason}))
+
+
+def diag(contacts: int, level: int = 0) -> NS:
+    kv = NS(key="hull or leg contact ticks", value=str(contacts))
+    return NS(status=[NS(name="seabed_sim: physics", level=level, message="x", values=[kv])])
+
+
+def recording(final: str = "DONE") -> Recording:
+    rec = Recording(Path("synthetic.mcap"))
+    rec.messages["odom"] = [(k * SEC // 10, odom(0.01 * k, 0.0)) for k in range(200)]
+    grid = np.zeros((40, 40), dtype=np.int8)
+    grid[20, 30] = 100  # an obstacle cell at (1.025, 0.025)
+    rec.messages["terrain_map"] = [(19 * SEC, NS(data=grid.ravel().tolist(), info=NS(
+        width=40, height=40, resolution=0.05, origin=NS(position=NS(x=-0.5, y=-1.0)))))]
+    rec.messages["mission_status"] = [
+        (0, status(1, "goto", "RUNNING", 0.0)), (5 * SEC, status(1, "goto", "RUNNING", 0.5)),
+        (10 * SEC, status(2, "cover", "RUNNING", 1.0, 0.2)),
+        (19 * SEC, status(2, "cover", final, 1.9, 0.93, "" if final == "DONE" else "why"))]
+    rec.messages["/diagnostics"] = [(0, diag(0)), (12 * SEC, diag(0, level=2)),
+                                    (18 * SEC, diag(3))]
+    return rec
+
+
+def test_a_row_per_task() -> None:
+    rows = task_rows(recording())
+    assert len(rows) == 2 and len(rows[0]) == len(HEADER)
+    goto, cover = rows
+    assert goto[:4] == ("1", "goto", "5.0", "0.50") and goto[-1] == "done"
+    assert cover[1] == "cover" and cover[3] == "1.40" and cover[4] == "93.0 %"
+    assert cover[6] == "3" and cover[7] == "1" and cover[-1] == "done"
+    assert float(cover[5]) < float(goto[5])  # the path nears the obstacle in the cover task
+
+
+def test_a_failed_task_shows_its_reason() -> None:
+    assert task_rows(recording("FAILED"))[-1][-1] == "failed: why"
+
+
+def test_no_mission_no_rows(tmp_path: Path) -> None:
+    rec = recording()
+    del rec.messages["mission_status"]
+    assert task_rows(rec) == [] and draw_mission(rec, tmp_path / "m.png", 0.16) is None
+
+
+def test_the_report_shows_the_mission(tmp_path: Path) -> None:
+    index = write_report(recording(), tmp_path)
+    text = index.read_text()
+    assert "Mission tasks" in text and "93.0 %" in text
+    assert (tmp_path / "mission.png").stat().st_size > 1000
