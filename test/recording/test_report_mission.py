@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from types import SimpleNamespace as NS
+from types import SimpleNamespace as Ns
 
 import numpy as np
 
@@ -17,19 +17,19 @@ from crawler_motion.recording.report_mission import HEADER, draw_mission, task_r
 SEC = 1_000_000_000
 
 
-def odom(x: float, y: float) -> NS:
-    return NS(pose=NS(pose=NS(position=NS(x=x, y=y, z=0.07))))
+def odom(x: float, y: float) -> Ns:
+    return Ns(pose=Ns(pose=Ns(position=Ns(x=x, y=y, z=0.07))))
 
 
 def status(index: int, kind: str, state: str, distance: float, covered=None, reason=""):
-    return NS(data=json.dumps({"mission": "m", "task_index": index, "tasks": 2,
+    return Ns(data=json.dumps({"mission": "m", "task_index": index, "tasks": 2,
                                "task_kind": kind, "state": state, "distance": distance,
                                "covered": covered, "reason": reason}))
 
 
-def diag(contacts: int, level: int = 0) -> NS:
-    kv = NS(key="hull or leg contact ticks", value=str(contacts))
-    return NS(status=[NS(name="seabed_sim: physics", level=level, message="x", values=[kv])])
+def diag(contacts: int, level: int = 0) -> Ns:
+    kv = Ns(key="hull or leg contact ticks", value=str(contacts))
+    return Ns(status=[Ns(name="seabed_sim: physics", level=level, message="x", values=[kv])])
 
 
 def recording(final: str = "DONE") -> Recording:
@@ -37,8 +37,8 @@ def recording(final: str = "DONE") -> Recording:
     rec.messages["odom"] = [(k * SEC // 10, odom(0.01 * k, 0.0)) for k in range(200)]
     grid = np.zeros((40, 40), dtype=np.int8)
     grid[20, 30] = 100  # an obstacle cell at (1.025, 0.025)
-    rec.messages["terrain_map"] = [(19 * SEC, NS(data=grid.ravel().tolist(), info=NS(
-        width=40, height=40, resolution=0.05, origin=NS(position=NS(x=-0.5, y=-1.0)))))]
+    rec.messages["terrain_map"] = [(19 * SEC, Ns(data=grid.ravel().tolist(), info=Ns(
+        width=40, height=40, resolution=0.05, origin=Ns(position=Ns(x=-0.5, y=-1.0)))))]
     rec.messages["mission_status"] = [
         (0, status(1, "goto", "RUNNING", 0.0)), (5 * SEC, status(1, "goto", "RUNNING", 0.5)),
         (10 * SEC, status(2, "cover", "RUNNING", 1.0, 0.2)),
