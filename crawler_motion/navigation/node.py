@@ -11,19 +11,30 @@ On every map it runs one cycle of the method (parameter ``method``; `methods.MET
 publishes the twist on ``cmd_vel``. Publishes ``navigation_status`` (std_msgs/String JSON,
 transient local) on every change and once a second. Leaving ACTIVE (arrived, failed,
 cancelled) sends a zero twist: the planner stops the walk into standing. A goal in another
-frame or not finite is refused (counted, logged, in the status) and changes nothing. Without
-fresh odometry the robot is stopped until it returns. Until joint_states arrive the virtual
-radius is the envelope radius.
+frame or not finite is refused (counted, logged, in the status) and changes nothing. Until
+joint_states arrive the virtual radius is the envelope radius.
+
+An ACTIVE goal is *held* (a zero twist: the robot stands; the reason in the status; checked on
+every map and every `WATCH_PERIOD`) while the odometry is older than ``odom_timeout``, while
+the map's content (its last fused scan, ``map_load_time``: `guards.MapFreshness`) is older
+than ``map_max_age``, or while another node publishes ``cmd_vel``. It resumes by itself when
+the cause is gone: every cycle plans from the measured pose on the map of that moment, as at
+the start of a goal (the goal's ``timeout`` keeps running). A planner refusal of a twist the
+navigator did not send is counted, not blamed on the goal (`planner_watch`). Counters
+(refusals, holds by cause, foreign twists) go to ``/diagnostics`` once a second (status
+``navigator: navigation``, hardware_id ``crawler_navigator``).
 """
 
 from __future__ import annotations
 
 import json
 import time
+from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, Twist, Vector3
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.node import Node
@@ -39,12 +50,19 @@ from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.model.rotations import quaternion_matrix, yaw_of
 from crawler_motion.navigation.apf_navigator import ApfNavigator, FollowCommand
 from crawler_motion.navigation.body import envelope_radius, virtual_radius
+from crawler_motion.navigation.guards import (
+    MapFreshness,
+    SentTwists,
+    foreign_publishers,
+    foreign_reason,
+)
 from crawler_motion.navigation.methods import make_navigator
 from crawler_motion.navigation.navigator import Method, NavState, goal_error
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
 from crawler_motion.navigation.planner_watch import RefusalWatch
 from crawler_motion.navigation.view import view_from_grid
 from crawler_motion.runtime.log import Throttle
+from crawler_motion.runtime.ros_diagnostics import counters_array
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 
@@ -52,6 +70,11 @@ NAME = "navigator"
 STATUS_PERIOD = 1.0  # [s]
 #: Refusals publish ``navigation_status`` at most this often [s] (as the planner's do).
 REFUSAL_STATUS_PERIOD = 0.1
+#: Period of the hold checks (map age, odometry age, cmd_vel publishers) [s].
+WATCH_PERIOD = 0.1
+#: Period of the ``/diagnostics`` status [s].
+DIAGNOSTICS_PERIOD = 1.0
+HARDWARE_ID = "crawler_navigator"
 
 
 def read_heights(msg: PointCloud2) -> np.ndarray | None:
@@ -73,6 +96,10 @@ class NavigatorNode(Node):
         self.cfg = load_config(values["config_file"] or None)
         self.nav = make_navigator(Method(values["method"]), settings)
         self.frame, self.odom_timeout = values["map_frame"], values["odom_timeout"]
+        self.map_max_age = values["map_max_age"]
+        self.freshness, self.sent = MapFreshness(), SentTwists()
+        self.holds: Counter[str] = Counter()  # holds by cause
+        self._foreign: list[str] = []  # other cmd_vel publishers
         self.radius = envelope_radius(self.cfg.robot)
         self.refusals, self.last_refusal = 0, ""
         self._pose: tuple[float, float, float] | None = None
@@ -95,6 +122,9 @@ class NavigatorNode(Node):
         self.create_subscription(String, "planner_status", self._on_planner_status, latched)
         self.create_service(Trigger, "~/cancel", self._on_cancel)
         self.create_timer(STATUS_PERIOD, lambda: self._publish_status(force=True))
+        self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_timer(WATCH_PERIOD, self._watch)
+        self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
         self._publish_status(force=True)
 
     def _refuse(self, why: str) -> None:
@@ -141,11 +171,11 @@ class NavigatorNode(Node):
         self._publish_status()
 
     def _on_planner_status(self, msg: String) -> None:
-        reason = self._planner.update(msg.data)
+        reason = self._planner.update(msg.data, self.sent)
         if reason is not None and self.nav.fail(reason):
             self._stop()
             self.get_logger().error(f"goal failed: {reason}")
-            self._publish_status()
+        self._publish_status()  # a foreign twist counted changes it too
 
     def _on_odom(self, msg: Odometry) -> None:
         q, p = msg.pose.pose.orientation, msg.pose.pose.position
@@ -177,16 +207,61 @@ class NavigatorNode(Node):
     def _stop(self) -> None:
         self._cmd.publish(Twist())
 
+    def _hold_reason(self) -> tuple[str, str] | None:
+        """(cause, reason) of a hold of the ACTIVE goal, None when it may walk."""
+        now = time.monotonic()
+        if self._pose is None or now - self._pose_at > self.odom_timeout:
+            return "odometry", "waiting for odometry"
+        if self._foreign:
+            return "cmd_vel_publisher", foreign_reason(self._foreign)
+        stale = self.freshness.stale_reason(now, self.map_max_age)
+        return None if stale is None else ("map", stale)
+
+    def _held(self) -> bool:
+        """Hold the ACTIVE goal if a cause says so (stop once, the reason in the status, the
+        cause counted and logged); True while held."""
+        hold = self._hold_reason()
+        if hold is None or self.nav.state is not NavState.ACTIVE:
+            return hold is not None
+        cause, reason = hold
+        if self.nav.reason != reason:
+            self._stop()
+            self.nav.reason = reason
+            self.holds[cause] += 1
+            self.get_logger().warning(f"goal held: {reason}")
+            self._publish_status()
+        return True
+
+    def _watch(self) -> None:
+        """Every `WATCH_PERIOD`: other cmd_vel publishers, then a hold when one is due (a
+        mapper that died sends no map to check on)."""
+        infos = self.get_publishers_info_by_topic(self._cmd.topic_name)
+        self._foreign = foreign_publishers(((i.node_name, i.node_namespace) for i in infos),
+                                           (self.get_name(), self.get_namespace()))
+        if self.nav.state is NavState.ACTIVE:
+            self._held()
+
+    def _publish_diagnostics(self) -> None:
+        held = self.nav.state is NavState.ACTIVE and self._hold_reason() is not None
+        warn = held or bool(self._foreign)
+        values = {"state": self.nav.state.value, "refusals": self.refusals,
+                  "last_refusal": self.last_refusal,
+                  **{f"holds_{c}": self.holds[c] for c in ("odometry", "map",
+                                                           "cmd_vel_publisher")},
+                  "foreign_twists_refused": self._planner.foreign,
+                  "other_cmd_vel_publishers": " ".join(self._foreign),
+                  "map_age": round(min(self.freshness.age(time.monotonic()), 1e9), 3)}
+        self._diagnostics.publish(counters_array(
+            self, "navigation", HARDWARE_ID, "warn" if warn else "ok",
+            self.nav.reason if held else ("other cmd_vel publishers" if warn else "ok"),
+            values))
+
     def _on_map(self, msg: OccupancyGrid) -> None:
-        if self.nav.state is not NavState.ACTIVE:
-            return
-        if self._pose is None or time.monotonic() - self._pose_at > self.odom_timeout:
-            if self.nav.reason != "waiting for odometry":
-                self._stop()
-                self.nav.reason = "waiting for odometry"
-                self._publish_status()
-            return
         info = msg.info
+        self.freshness.note(info.map_load_time.sec + 1e-9 * info.map_load_time.nanosec,
+                            self.get_clock().now().nanoseconds * 1e-9, time.monotonic())
+        if self.nav.state is not NavState.ACTIVE or self._held():
+            return
         try:
             view = view_from_grid((info.origin.position.x, info.origin.position.y),
                                   info.resolution, info.width, info.height,
@@ -197,13 +272,17 @@ class NavigatorNode(Node):
         self.nav.reason = ""
         out = self.nav.step(self._pose, self.radius, view, time.monotonic())
         if out.twist is not None:
+            self.sent.add(out.twist)
             self._cmd.publish(Twist(linear=_vec(out.twist[0], out.twist[1]),
                                     angular=_vec(0.0, 0.0, out.twist[2])))
         self._publish_status()
 
     def _publish_status(self, force: bool = False) -> None:
         status = {**self.nav.status(), "radius": round(self.radius, 4),
-                  "refusals": self.refusals, "last_refusal": self.last_refusal}
+                  "refusals": self.refusals, "last_refusal": self.last_refusal,
+                  "foreign_twists_refused": self._planner.foreign,
+                  "last_foreign_twist": self._planner.last_foreign,
+                  "other_cmd_vel_publishers": self._foreign}
         text = json.dumps(status)
         if force or text != self._last_status:
             self._last_status = text
