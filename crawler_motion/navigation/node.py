@@ -64,7 +64,7 @@ from crawler_motion.navigation.view import view_from_grid
 from crawler_motion.runtime.log import Throttle
 from crawler_motion.runtime.ros_diagnostics import counters_array
 from crawler_motion.runtime.ros_main import run_node
-from crawler_motion.runtime.ros_parameters import descriptor
+from crawler_motion.runtime.ros_parameters import descriptor, parameter_values
 
 NAME = "navigator"
 STATUS_PERIOD = 1.0  # [s]
@@ -91,7 +91,7 @@ class NavigatorNode(Node):
         super().__init__(NAME, **kwargs)
         for spec in NAVIGATOR_PARAMETERS:
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
-        values = {s.name: self.get_parameter(s.name).value for s in NAVIGATOR_PARAMETERS}
+        values = parameter_values(self, NAVIGATOR_PARAMETERS)
         settings = navigator_settings(values)
         self.cfg = load_config(values["config_file"] or None)
         self.nav = make_navigator(Method(values["method"]), settings)

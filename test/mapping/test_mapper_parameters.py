@@ -35,3 +35,13 @@ def test_the_largest_grid_runs_at_a_lower_rate() -> None:
     side = MAX_CELLS ** 0.5 * 0.02  # 500 x 500 cells of 2 cm
     assert budget_problems(side, 0.02, 2.0) == []
     assert budget_problems(side, 0.02, 10.0)
+
+
+def test_the_mapper_process_refuses_a_grid_beyond_the_budget() -> None:
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "crawler_motion.mapping.node", "--ros-args",
+                           "-p", "size:=50.0", "-p", "resolution:=0.02"],
+                          capture_output=True, text=True, timeout=30)
+    assert proc.returncode == 1 and "more than the budget" in proc.stdout + proc.stderr
