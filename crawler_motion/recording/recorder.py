@@ -38,6 +38,7 @@ from crawler_motion.recording.qos import (
     offered_qos_profiles,
     requested_qos,
 )
+from crawler_motion.recording.recovery import recover
 from crawler_motion.recording.sink import McapSink
 from crawler_motion.recording.topics import STACK_TOPICS, absolute
 from crawler_motion.runtime.cli_args import OneLineParser, finite_number
@@ -160,7 +161,11 @@ def ros_qos(qos: Qos) -> QoSProfile:
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """The recorder's options."""
     parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
-    parser.add_argument("-o", "--output", required=True, help="MCAP file to write")
+    parser.add_argument("-o", "--output", default=None, help="MCAP file to write (required "
+                        "unless --recover; with it default <stem>.recovered.mcap)")
+    parser.add_argument("--recover", default=None, metavar="FILE",
+                        help="record nothing: copy the readable messages of FILE, a recording "
+                        "cut by a kill or a power loss, into a complete MCAP file (-o)")
     parser.add_argument("--topics", nargs="+", default=None,
                         help="topics to record (default: every topic on the graph)")
     parser.add_argument("--duration", type=finite_number("--duration", positive=True),
@@ -172,7 +177,21 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--port", type=int, default=0, help="udp_multicast port (0: default)")
     parser.add_argument("--quiet", action="store_true", help="no progress line")
     args, _ros = parser.parse_known_args(argv)
+    if args.output is None and args.recover is None:
+        parser.error("the following arguments are required: -o/--output")
     return args
+
+
+def recover_main(source: str, output: str | None) -> int:
+    """``--recover``: the complete copy of a cut recording; its line, or the error."""
+    try:
+        result = recover(source, output)
+    except CrawlerMotionError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 1
+    cut = f"; cut at: {result.damage}" if result.damage else "; the file was intact"
+    print(f"recovered {result.messages} messages into {result.output}{cut}")
+    return 0
 
 
 def progress(sink: McapSink, elapsed: float, can_log: CanLog | None) -> str:
@@ -211,6 +230,8 @@ def _open(args: argparse.Namespace) -> tuple[McapSink, CanLog | None]:
 def main(argv: Sequence[str] | None = None) -> int:
     """Record until ``--duration`` or Ctrl-C / SIGTERM; returns the exit status."""
     args = parse_args(sys.argv[1:] if argv is None else argv)
+    if args.recover is not None:
+        return recover_main(args.recover, args.output)
     try:
         sink, can_log = _open(args)
     except CrawlerMotionError as exc:
