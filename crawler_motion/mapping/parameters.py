@@ -37,7 +37,9 @@ def mapper_parameters(cfg: Config) -> tuple[ParamSpec, ...]:
                   read_only=True, check=not_empty),
         ParamSpec("resolution", 0.05, "cell side [m]", read_only=True, minimum=0.005,
                   maximum=1.0, unit="m"),
-        ParamSpec("size", 4.0, "side of the square map window around the robot [m]",
+        ParamSpec("size", 4.0, "side of the square map window around the robot [m] "
+                  "(with resolution and publish_rate within the budget: at most "
+                  f"{MAX_CELLS} cells and {MAX_CELL_RATE:.0f} cells published per second)",
                   read_only=True, minimum=0.5, maximum=50.0, unit="m"),
         ParamSpec("gate", 2.5, "Mahalanobis gate: a return farther from its cell's height (in "
                   "cell standard deviations) is not fused; the cell's variance grows",
