@@ -10,8 +10,9 @@ clock minus the stamp, at least 0), growing from then on until the next new stam
 killed, stopped or skipping every scan therefore ages its map, even though the navigator may
 still receive grids (or none at all).
 
-**Foreign publishers.** The navigator is meant to be the only node steering ``cmd_vel``; the
-node lists the other publishers of the topic from the ROS graph (`foreign_publishers`).
+**Foreign publishers.** The navigator is meant to be the only node steering ``cmd_vel``: a
+twist on the topic that is none of its own (`SentTwists`) is another node's; the node names
+the topic's other publishers from the ROS graph (`foreign_publishers`).
 
 **Refusal attribution.** `SentTwists` remembers the navigator's recent twists, so a refusal
 of a twist it never sent (another node's) is not blamed on it.
@@ -71,10 +72,13 @@ def foreign_publishers(publishers: Iterable[tuple[str, str]], own: tuple[str, st
     return sorted(names)
 
 
-def foreign_reason(names: Sequence[str]) -> str:
-    """The hold reason while other nodes publish ``cmd_vel``."""
-    return (f"held: cmd_vel is also published by {', '.join(names)}; the navigator does not "
-            "steer while another node does (it resumes when that publisher is gone)")
+def foreign_reason(names: Sequence[str], hold: float) -> str:
+    """The hold reason while another node's twists arrive on ``cmd_vel`` (``names``: the
+    topic's other publishers; ``hold`` [s]: how long after the last such twist)."""
+    who = ", ".join(names) if names else "a node gone already"
+    return (f"held: another node steers cmd_vel (its publishers besides the navigator: {who});"
+            f" the navigator does not steer while it does (it resumes {hold:g} s after that "
+            "node's last twist)")
 
 
 def _full_name(name: str, namespace: str) -> str:
@@ -83,14 +87,29 @@ def _full_name(name: str, namespace: str) -> str:
 
 
 class SentTwists:
-    """The navigator's last `SENT_MEMORY` twists ``(vx, vy, wz)``."""
+    """The navigator's last `SENT_MEMORY` twists ``(vx, vy, wz)``, and those of them not yet
+    heard back on ``cmd_vel`` (`echo`): a twist heard that it did not send, or more often than
+    it sent it (another node's zero twists, say), is another node's."""
 
     def __init__(self) -> None:
         self._sent: deque[tuple[float, float, float]] = deque(maxlen=SENT_MEMORY)
+        self._unheard: deque[tuple[float, float, float]] = deque(maxlen=SENT_MEMORY)
 
     def add(self, twist: Sequence[float]) -> None:
         """Remember one twist sent (m/s, m/s, rad/s)."""
-        self._sent.append((float(twist[0]), float(twist[1]), float(twist[2])))
+        key = (float(twist[0]), float(twist[1]), float(twist[2]))
+        self._sent.append(key)
+        self._unheard.append(key)
+
+    def echo(self, twist: Sequence[float]) -> bool:
+        """A twist heard on ``cmd_vel``: True if it is one the navigator sent and had not
+        heard yet (its own), False if another node's."""
+        key = (float(twist[0]), float(twist[1]), float(twist[2]))
+        try:
+            self._unheard.remove(key)
+        except ValueError:
+            return False
+        return True
 
     def __contains__(self, twist: object) -> bool:
         try:

@@ -17,9 +17,12 @@ joint_states arrive the virtual radius is the envelope radius.
 An ACTIVE goal is *held* (a zero twist: the robot stands; the reason in the status; checked on
 every map and every `WATCH_PERIOD`) while the odometry is older than ``odom_timeout``, while
 the map's content (its last fused scan, ``map_load_time``: `guards.MapFreshness`) is older
-than ``map_max_age``, or while another node publishes ``cmd_vel``. It resumes by itself when
-the cause is gone: every cycle plans from the measured pose on the map of that moment, as at
-the start of a goal (the goal's ``timeout`` keeps running). A planner refusal of a twist the
+than ``map_max_age``, or while another node steers: a ``cmd_vel`` twist the navigator did
+not send (it listens to its own topic) was seen within `FOREIGN_HOLD` (the reason names the
+topic's other publishers from the graph; a publisher that sends nothing, such as an idle
+console, holds nothing). It resumes by itself when the cause is gone: every cycle plans from
+the measured pose on the map of that moment, as at the start of a goal (the goal's
+``timeout`` keeps running). A planner refusal of a twist the
 navigator did not send is counted, not blamed on the goal (`planner_watch`). Counters
 (refusals, holds by cause, foreign twists) go to ``/diagnostics`` once a second (status
 ``navigator: navigation``, hardware_id ``crawler_navigator``).
@@ -72,6 +75,8 @@ STATUS_PERIOD = 1.0  # [s]
 REFUSAL_STATUS_PERIOD = 0.1
 #: Period of the hold checks (map age, odometry age, cmd_vel publishers) [s].
 WATCH_PERIOD = 0.1
+#: A goal is held this long after a cmd_vel twist the navigator did not send [s].
+FOREIGN_HOLD = 1.0
 #: Period of the ``/diagnostics`` status [s].
 DIAGNOSTICS_PERIOD = 1.0
 HARDWARE_ID = "crawler_navigator"
@@ -99,7 +104,8 @@ class NavigatorNode(Node):
         self.map_max_age = values["map_max_age"]
         self.freshness, self.sent = MapFreshness(), SentTwists()
         self.holds: Counter[str] = Counter()  # holds by cause
-        self._foreign: list[str] = []  # other cmd_vel publishers
+        self._foreign_at = -float("inf")  # steady time of the last twist of another node [s]
+        self.foreign_twists = 0  # cmd_vel twists of other nodes seen
         self.radius = envelope_radius(self.cfg.robot)
         self.refusals, self.last_refusal = 0, ""
         self._pose: tuple[float, float, float] | None = None
@@ -124,6 +130,7 @@ class NavigatorNode(Node):
         self.create_timer(STATUS_PERIOD, lambda: self._publish_status(force=True))
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_timer(WATCH_PERIOD, self._watch)
+        self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, 50)
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
         self._publish_status(force=True)
 
@@ -205,6 +212,7 @@ class NavigatorNode(Node):
         return resp
 
     def _stop(self) -> None:
+        self.sent.add((0.0, 0.0, 0.0))
         self._cmd.publish(Twist())
 
     def _hold_reason(self) -> tuple[str, str] | None:
@@ -212,8 +220,8 @@ class NavigatorNode(Node):
         now = time.monotonic()
         if self._pose is None or now - self._pose_at > self.odom_timeout:
             return "odometry", "waiting for odometry"
-        if self._foreign:
-            return "cmd_vel_publisher", foreign_reason(self._foreign)
+        if now - self._foreign_at < FOREIGN_HOLD:
+            return "cmd_vel_publisher", foreign_reason(self._other_publishers(), FOREIGN_HOLD)
         stale = self.freshness.stale_reason(now, self.map_max_age)
         return None if stale is None else ("map", stale)
 
@@ -232,28 +240,41 @@ class NavigatorNode(Node):
             self._publish_status()
         return True
 
-    def _watch(self) -> None:
-        """Every `WATCH_PERIOD`: other cmd_vel publishers, then a hold when one is due (a
-        mapper that died sends no map to check on)."""
+    def _other_publishers(self) -> list[str]:
+        """The other publishers of cmd_vel on the graph, by full name."""
         infos = self.get_publishers_info_by_topic(self._cmd.topic_name)
-        self._foreign = foreign_publishers(((i.node_name, i.node_namespace) for i in infos),
-                                           (self.get_name(), self.get_namespace()))
+        return foreign_publishers(((i.node_name, i.node_namespace) for i in infos),
+                                  (self.get_name(), self.get_namespace()))
+
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        """A twist on cmd_vel: another node's when the navigator did not send it."""
+        if not self.sent.echo((msg.linear.x, msg.linear.y, msg.angular.z)):
+            self._foreign_at = time.monotonic()
+            self.foreign_twists += 1
+            if self.nav.state is NavState.ACTIVE:
+                self._held()
+
+    def _watch(self) -> None:
+        """Every `WATCH_PERIOD`: a hold when one is due (a mapper that died sends no map to
+        check on)."""
         if self.nav.state is NavState.ACTIVE:
             self._held()
 
     def _publish_diagnostics(self) -> None:
         held = self.nav.state is NavState.ACTIVE and self._hold_reason() is not None
-        warn = held or bool(self._foreign)
+        others = self._other_publishers()
+        warn = held or time.monotonic() - self._foreign_at < FOREIGN_HOLD
         values = {"state": self.nav.state.value, "refusals": self.refusals,
                   "last_refusal": self.last_refusal,
                   **{f"holds_{c}": self.holds[c] for c in ("odometry", "map",
                                                            "cmd_vel_publisher")},
                   "foreign_twists_refused": self._planner.foreign,
-                  "other_cmd_vel_publishers": " ".join(self._foreign),
+                  "foreign_twists_seen": self.foreign_twists,
+                  "other_cmd_vel_publishers": " ".join(others),
                   "map_age": round(min(self.freshness.age(time.monotonic()), 1e9), 3)}
         self._diagnostics.publish(counters_array(
             self, "navigation", HARDWARE_ID, "warn" if warn else "ok",
-            self.nav.reason if held else ("other cmd_vel publishers" if warn else "ok"),
+            self.nav.reason if held else ("another node publishes cmd_vel" if warn else "ok"),
             values))
 
     def _on_map(self, msg: OccupancyGrid) -> None:
@@ -282,7 +303,7 @@ class NavigatorNode(Node):
                   "refusals": self.refusals, "last_refusal": self.last_refusal,
                   "foreign_twists_refused": self._planner.foreign,
                   "last_foreign_twist": self._planner.last_foreign,
-                  "other_cmd_vel_publishers": self._foreign}
+                  "foreign_twists_seen": self.foreign_twists}
         text = json.dumps(status)
         if force or text != self._last_status:
             self._last_status = text

@@ -39,7 +39,8 @@ def test_other_publishers_are_named_and_the_navigator_is_not() -> None:
     pubs = [("navigator", "/"), ("teleop", "/"), ("teleop", "/"), ("nav2", "/crawler1")]
     assert foreign_publishers(pubs, ("navigator", "/")) == ["/crawler1/nav2", "/teleop"]
     assert foreign_publishers([("navigator", "/r1")], ("navigator", "/r1")) == []
-    assert "/teleop" in foreign_reason(["/teleop"])
+    assert "/teleop" in foreign_reason(["/teleop"], 1.0)
+    assert "gone already" in foreign_reason([], 1.0)
 
 
 def test_sent_twists_are_recognised_exactly() -> None:
@@ -47,3 +48,13 @@ def test_sent_twists_are_recognised_exactly() -> None:
     sent.add((0.08, 0.0, 0.01))
     assert [0.08, 0.0, 0.01] in sent and [1e6, 0.0, 0.0] not in sent
     assert "junk" not in sent and None not in sent
+
+
+def test_a_twist_heard_more_often_than_sent_is_another_nodes() -> None:
+    sent = SentTwists()
+    sent.add((0.0, 0.0, 0.0))
+    sent.add((0.05, 0.0, 0.0))
+    assert sent.echo([0.05, 0.0, 0.0]) and sent.echo([0.0, 0.0, 0.0])
+    assert not sent.echo([0.0, 0.0, 0.0])  # a second zero twist: not the navigator's
+    assert not sent.echo([1e6, 0.0, 0.0])
+    assert [0.0, 0.0, 0.0] in sent  # still its own for attributing refusals

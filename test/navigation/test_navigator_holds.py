@@ -39,6 +39,7 @@ class World:
         n = self.node
         self.fresh = True  # map_load_time follows the clock
         self.mapper_alive = True  # maps published
+        self.racing = False  # another publisher sends zero twists
         self.load = Time()
         self.status: dict = {}
         self.twists: list[Twist] = []
@@ -91,6 +92,9 @@ class World:
                 return True
         return False
 
+    def nav_twists(self) -> list[Twist]:
+        return [t for t in self.twists if t.linear.x != 0.0 or not self.racing]
+
     def walking(self) -> bool:
         return bool(self.twists) and self.twists[-1].linear.x > 0.0
 
@@ -123,13 +127,29 @@ def test_a_stale_map_or_another_cmd_vel_publisher_holds_the_goal(tmp_path: Path,
         world.fresh = True  # fusing again: the goal resumes from the measured pose
         assert world.spin_until(world.walking, 3.0), world.status
         assert world.spin_until(lambda: world.status["reason"] == "", 1.0), world.status
-        # another node publishes cmd_vel: held, named, resumed when it is gone
+        # another node's publisher that sends nothing (an idle console) holds nothing
         other = world.node.create_publisher(Twist, "cmd_vel", 10)
-        assert world.spin_until(lambda: "also published by" in world.status.get(
-            "reason", ""), 5.0), world.status
-        assert "/holds_world" in world.status["reason"] and world.spin_until(world.stopped, 1.0)
-        world.node.destroy_publisher(other)
-        assert world.spin_until(world.walking, 5.0), world.status
+        world.spin_until(lambda: False, 1.0)
+        assert world.status["reason"] == "" and world.walking(), world.status
+        # its zero twists at 50 Hz: held with the reason (no stop and start), named
+        world.node.create_timer(0.02, lambda: other.publish(Twist()) if world.racing else None)
+        world.racing = True
+        assert world.spin_until(lambda: "another node steers" in world.status.get(
+            "reason", ""), 3.0), world.status
+        assert "/holds_world" in world.status["reason"]
+        mark = len(world.nav_twists())
+        world.spin_until(lambda: False, 1.5)
+        assert all(t.linear.x == 0.0 for t in world.nav_twists()[mark:])  # no walk restarted
+        world.racing = False  # the other node stops: the goal resumes
+        assert world.spin_until(world.walking, 3.0), world.status
+        # one 1e6 m/s twist of the other node: a hold of FOREIGN_HOLD, then the goal goes on
+        fast = Twist()
+        fast.linear.x = 1e6
+        other.publish(fast)
+        assert world.spin_until(lambda: "another node steers" in world.status.get(
+            "reason", ""), 3.0), world.status
+        assert world.spin_until(lambda: world.walking() and world.twists[-1].linear.x < 1.0,
+                                3.0), world.status
         # the planner refuses a twist the navigator never sent: counted, the goal goes on
         world.planner.publish(String(data=json.dumps({
             "refusals": 1, "refused_twist": [1e6, 0.0, 0.0],
