@@ -20,6 +20,7 @@ ROS_MODULES = {"planner/node.py", "driver/node.py", "driver/rclpy_workarounds.py
                "driver/messages.py", "driver/command_input.py", "controller/node.py",
                "runtime/ros_reader.py",
                "runtime/ros_parameters.py", "runtime/ros_main.py", "sim/seabed/node.py",
+               "runtime/ros_diagnostics.py",
                "mapping/node.py", "navigation/node.py", "navigation/mission_topics.py",
                "recording/recorder.py",
                "recording/view.py"}

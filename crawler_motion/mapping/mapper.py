@@ -19,9 +19,11 @@ core has no clock), with ``tol`` = ``pose_tolerance``:
 - ``t > newest + tol`` (the odometry is later than the tolerance allows):
   ``AHEAD_OF_ODOMETRY``; ``t < oldest``: ``STALE``; no odometry yet: ``NO_ODOMETRY``.
 
-Every scan given to `add_scan` ends fused (`scans_fused`), skipped (its `SkipReason` counted in
-`skipped`) or still held (`held`). Non-finite points of a usable scan are left out and counted
-too. The map never holds NaN.
+`last_fused_stamp` is the stamp of the newest scan fused (None before the first and after an
+odometry restart cleared the map): the age of the map's content, which the node publishes as
+``map_load_time``. Every scan given to `add_scan` ends fused (`scans_fused`), skipped (its
+`SkipReason` counted in `skipped`) or still held (`held`). Non-finite points of a usable scan
+are left out and counted too. The map never holds NaN.
 """
 
 from __future__ import annotations
@@ -127,6 +129,7 @@ class TerrainMapper:
         self.grid = self._new_grid()
         self.skipped: Counter[SkipReason] = Counter()
         self.scans_fused = 0
+        self.last_fused_stamp: float | None = None  # [s]
         self.last_fuse: FuseResult | None = None
         self._poses: deque[Pose] = deque()
         self._held: list[_HeldScan] = []  # ordered by stamp
@@ -171,6 +174,7 @@ class TerrainMapper:
         self.skipped[SkipReason.ODOMETRY_RESET] += len(self._held)
         self._held.clear()
         self._last_position = None
+        self.last_fused_stamp = None
 
     def _new_grid(self) -> ElevationGrid:
         s = self.settings
@@ -245,6 +249,7 @@ class TerrainMapper:
                                   self.settings.noise)
         self.last_fuse = self.grid.fuse(p_m, var)
         self.scans_fused += 1
+        self.last_fused_stamp = max(stamp, self.last_fused_stamp or -math.inf)
         return ScanFate.FUSED
 
     def _skip(self, reason: SkipReason) -> SkipReason:

@@ -7,7 +7,13 @@ the map frame: 100 obstacle, 0 free, -1 unknown) and ``terrain_heights``
 variance float32, z the fused height [m], variance [m²]). A scan newer than the latest odometry
 is held until the odometry reaches its stamp (`mapper` has the rule). A skipped scan (when it
 arrives, or a held one later) is counted by reason and logged (at most once a second per
-reason). All the work is in `mapper.TerrainMapper`.
+reason). ``terrain_map``'s ``info.map_load_time`` is the stamp of the last scan fused (zero
+before the first and after an odometry restart): the age of the map's content, which the
+navigator checks (``map_max_age``); the header stamp is the publication time. Once a second
+``/diagnostics`` gets the status ``terrain_mapper: terrain map`` (hardware_id
+``crawler_mapper``): scans fused, skips by reason (``skipped_<REASON>``), odometry refusals
+by verdict (``odom_<VERDICT>``), the content's age; WARN when no scan was fused in the last
+period while scans were skipped. All the work is in `mapper.TerrainMapper`.
 """
 
 from __future__ import annotations
@@ -18,6 +24,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
@@ -31,6 +39,7 @@ from crawler_motion.mapping.points import Mount
 from crawler_motion.model.config import load_config, load_scanner
 from crawler_motion.model.rotations import quaternion_matrix
 from crawler_motion.runtime.log import Throttle
+from crawler_motion.runtime.ros_diagnostics import counters_array
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 
@@ -38,6 +47,9 @@ NAME = "terrain_mapper"
 #: A skip or refusal reason is logged at most once per this period [s] (each reason apart).
 LOG_PERIOD = 1.0
 FIELDS = ("x", "y", "z", "variance")
+#: Period of the ``/diagnostics`` status [s].
+DIAGNOSTICS_PERIOD = 1.0
+HARDWARE_ID = "crawler_mapper"
 
 
 def stamp_seconds(stamp: Any) -> float:
@@ -73,6 +85,9 @@ class TerrainMapperNode(Node):
         self.create_subscription(Odometry, "odom", self._on_odom, 20)
         self._throttle = Throttle(LOG_PERIOD)  # warnings by reason
         self.create_timer(1.0 / values["publish_rate"], self._publish)
+        self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._counted = (0, 0)  # scans fused and skipped at the last diagnostics
+        self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
         self.get_logger().info(f"{NAME}: {self.mapper.settings.cells}² cells of "
                                f"{self.mapper.settings.resolution:g} m in {self.frame}")
 
@@ -116,11 +131,31 @@ class TerrainMapperNode(Node):
             if count > before[reason]:
                 self._skip(reason)
 
+    def _publish_diagnostics(self) -> None:
+        m = self.mapper
+        counted = (m.scans_fused, sum(m.skipped.values()))
+        starved = counted[0] == self._counted[0] and counted[1] > self._counted[1]
+        self._counted = counted
+        now = self.get_clock().now().nanoseconds * 1e-9
+        age = "none" if m.last_fused_stamp is None else f"{now - m.last_fused_stamp:.3f}"
+        values = {"scans_fused": m.scans_fused, "scans_held": m.held, "map_age": age,
+                  **{f"skipped_{r.name}": m.skipped[r] for r in SkipReason},
+                  **{f"odom_{v.name}": m.odometry_refused[v] for v in OdometryVerdict
+                     if v is not OdometryVerdict.ACCEPT}}
+        message = "scans skipped, none fused in the last period" if starved else "ok"
+        self._diagnostics.publish(counters_array(self, "terrain map", HARDWARE_ID,
+                                                 "warn" if starved else "ok", message, values))
+
     def _publish(self) -> None:
         stamp = self.get_clock().now().to_msg()
         g = self.mapper.grid
         grid = OccupancyGrid()
         grid.header.stamp, grid.header.frame_id = stamp, self.frame
+        fused = self.mapper.last_fused_stamp
+        if fused is not None:
+            sec = int(fused // 1)
+            grid.info.map_load_time = Time(sec=sec, nanosec=min(round((fused - sec) * 1e9),
+                                                                 999_999_999))
         grid.info.resolution = float(g.resolution)
         grid.info.width = grid.info.height = g.cells
         grid.info.origin.position.x, grid.info.origin.position.y = (float(v) for v in g.origin)

@@ -1,4 +1,11 @@
-"""The terrain_mapper node's parameters as `ParamSpec`s and the settings they build (pure)."""
+"""The terrain_mapper node's parameters as `ParamSpec`s and the settings they build (pure).
+
+Each parameter has its range, and together they must fit the mapper's budget: a grid of at
+most `MAX_CELLS` cells, and at most `MAX_CELL_RATE` cells published per second (cells ×
+``publish_rate``; one publication costs about 0.35 µs per cell on the reference machine, so
+the budget is about a fifth of a core). ``size:=50.0 resolution:=0.02`` (6.25 M cells) is
+refused with the reason instead of starving the node.
+"""
 
 from __future__ import annotations
 
@@ -13,6 +20,11 @@ from crawler_motion.mapping.points import NoiseModel
 from crawler_motion.model.config import Config
 from crawler_motion.runtime.parameters import ParamSpec, not_empty, validate_parameters
 
+#: Most cells of the map window (memory, and the cost of one publication).
+MAX_CELLS = 250_000
+#: Most cells published per second (cells × publish_rate) [1/s].
+MAX_CELL_RATE = 500_000.0
+
 
 def mapper_parameters(cfg: Config) -> tuple[ParamSpec, ...]:
     """The parameters; the obstacle threshold's default is the robot's `step_threshold`."""
@@ -25,7 +37,9 @@ def mapper_parameters(cfg: Config) -> tuple[ParamSpec, ...]:
                   read_only=True, check=not_empty),
         ParamSpec("resolution", 0.05, "cell side [m]", read_only=True, minimum=0.005,
                   maximum=1.0, unit="m"),
-        ParamSpec("size", 4.0, "side of the square map window around the robot [m]",
+        ParamSpec("size", 4.0, "side of the square map window around the robot [m] "
+                  "(with resolution and publish_rate within the budget: at most "
+                  f"{MAX_CELLS} cells and {MAX_CELL_RATE:.0f} cells published per second)",
                   read_only=True, minimum=0.5, maximum=50.0, unit="m"),
         ParamSpec("gate", 2.5, "Mahalanobis gate: a return farther from its cell's height (in "
                   "cell standard deviations) is not fused; the cell's variance grows",
@@ -78,9 +92,11 @@ def mapper_settings(specs: tuple[ParamSpec, ...], values: Mapping[str, Any]
                     ) -> MapperSettings:
     """Validated settings; `ConfigError` naming every bad value."""
     reasons = validate_parameters(specs, values)
+    v = values
+    if not reasons:
+        reasons = budget_problems(v["size"], v["resolution"], v["publish_rate"])
     if reasons:
         raise ConfigError("; ".join(reasons))
-    v = values
     noise = NoiseModel(v["range_noise"], v["lateral_noise"], v["attitude_noise"])
     return MapperSettings(resolution=v["resolution"], size=v["size"], gate=v["gate"],
                           drift=v["drift"], noise=noise, obstacle_height=v["obstacle_height"],
@@ -92,3 +108,19 @@ def mapper_settings(specs: tuple[ParamSpec, ...], values: Mapping[str, Any]
                               max_position=v["odom_max_position"],
                               max_speed=v["odom_max_speed"],
                               reset_samples=v["odom_reset_samples"]))
+
+
+def budget_problems(size: float, resolution: float, publish_rate: float) -> list[str]:
+    """Why a map of ``size`` [m] in cells of ``resolution`` [m] published at ``publish_rate``
+    [Hz] exceeds the budget (`MAX_CELLS`, `MAX_CELL_RATE`); empty when it fits."""
+    cells = MapperSettings(resolution=resolution, size=size).cells ** 2
+    problems = []
+    if cells > MAX_CELLS:
+        problems.append(f"size {size:g} m / resolution {resolution:g} m makes {cells} cells, "
+                        f"more than the budget of {MAX_CELLS}: use a coarser resolution or a "
+                        "smaller size")
+    elif cells * publish_rate > MAX_CELL_RATE:
+        problems.append(f"{cells} cells published at {publish_rate:g} Hz are "
+                        f"{cells * publish_rate:.0f} cells/s, more than the budget of "
+                        f"{MAX_CELL_RATE:.0f}: lower publish_rate, size or the resolution")
+    return problems

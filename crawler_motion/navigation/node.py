@@ -11,19 +11,33 @@ On every map it runs one cycle of the method (parameter ``method``; `methods.MET
 publishes the twist on ``cmd_vel``. Publishes ``navigation_status`` (std_msgs/String JSON,
 transient local) on every change and once a second. Leaving ACTIVE (arrived, failed,
 cancelled) sends a zero twist: the planner stops the walk into standing. A goal in another
-frame or not finite is refused (counted, logged, in the status) and changes nothing. Without
-fresh odometry the robot is stopped until it returns. Until joint_states arrive the virtual
-radius is the envelope radius.
+frame or not finite is refused (counted, logged, in the status) and changes nothing. Until
+joint_states arrive the virtual radius is the envelope radius.
+
+An ACTIVE goal is *held* (a zero twist: the robot stands; the reason in the status; checked on
+every map and every `WATCH_PERIOD`) while the odometry is older than ``odom_timeout``, while
+the map's content (its last fused scan, ``map_load_time``: `guards.MapFreshness`) is older
+than ``map_max_age``, or while another node steers: a ``cmd_vel`` twist the navigator did
+not send (it listens to its own topic) was seen within `FOREIGN_HOLD` (the reason names the
+topic's other publishers from the graph; a publisher that sends nothing, such as an idle
+console, holds nothing). It resumes by itself when the cause is gone: every cycle plans from
+the measured pose on the map of that moment, as at the start of a goal (the goal's
+``timeout`` keeps running). A planner refusal of a twist the
+navigator did not send is counted, not blamed on the goal (`planner_watch`). Counters
+(refusals, holds by cause, foreign twists) go to ``/diagnostics`` once a second (status
+``navigator: navigation``, hardware_id ``crawler_navigator``).
 """
 
 from __future__ import annotations
 
 import json
 import time
+from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, Twist, Vector3
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.node import Node
@@ -39,6 +53,12 @@ from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.model.rotations import quaternion_matrix, yaw_of
 from crawler_motion.navigation.apf_navigator import ApfNavigator, FollowCommand
 from crawler_motion.navigation.body import envelope_radius, virtual_radius
+from crawler_motion.navigation.guards import (
+    MapFreshness,
+    SentTwists,
+    foreign_publishers,
+    foreign_reason,
+)
 from crawler_motion.navigation.methods import make_navigator
 from crawler_motion.navigation.mission_topics import MissionTopics
 from crawler_motion.navigation.navigator import Method, NavState, goal_error
@@ -46,13 +66,21 @@ from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator
 from crawler_motion.navigation.planner_watch import RefusalWatch
 from crawler_motion.navigation.view import view_from_grid
 from crawler_motion.runtime.log import Throttle
+from crawler_motion.runtime.ros_diagnostics import counters_array
 from crawler_motion.runtime.ros_main import run_node
-from crawler_motion.runtime.ros_parameters import descriptor
+from crawler_motion.runtime.ros_parameters import descriptor, parameter_values
 
 NAME = "navigator"
 STATUS_PERIOD = 1.0  # [s]
 #: Refusals publish ``navigation_status`` at most this often [s] (as the planner's do).
 REFUSAL_STATUS_PERIOD = 0.1
+#: Period of the hold checks (map age, odometry age, cmd_vel publishers) [s].
+WATCH_PERIOD = 0.1
+#: A goal is held this long after a cmd_vel twist the navigator did not send [s].
+FOREIGN_HOLD = 1.0
+#: Period of the ``/diagnostics`` status [s].
+DIAGNOSTICS_PERIOD = 1.0
+HARDWARE_ID = "crawler_navigator"
 
 
 def read_heights(msg: PointCloud2) -> np.ndarray | None:
@@ -69,11 +97,16 @@ class NavigatorNode(Node):
         super().__init__(NAME, **kwargs)
         for spec in NAVIGATOR_PARAMETERS:
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
-        values = {s.name: self.get_parameter(s.name).value for s in NAVIGATOR_PARAMETERS}
+        values = parameter_values(self, NAVIGATOR_PARAMETERS)
         settings = navigator_settings(values)
         self.cfg = load_config(values["config_file"] or None)
         self.nav = make_navigator(Method(values["method"]), settings)
         self.frame, self.odom_timeout = values["map_frame"], values["odom_timeout"]
+        self.map_max_age = values["map_max_age"]
+        self.freshness, self.sent = MapFreshness(), SentTwists()
+        self.holds: Counter[str] = Counter()  # holds by cause
+        self._foreign_at = -float("inf")  # steady time of the last twist of another node [s]
+        self.foreign_twists = 0  # cmd_vel twists of other nodes seen
         self.radius = envelope_radius(self.cfg.robot)
         self.refusals, self.last_refusal = 0, ""
         self._pose: tuple[float, float, float] | None = None
@@ -98,6 +131,10 @@ class NavigatorNode(Node):
         self.missions = MissionTopics(self, self.nav, self.cfg.tool_width, lambda: self._pose,
                                       self._refuse, self._planner.start)
         self.create_timer(STATUS_PERIOD, lambda: self._publish_status(force=True))
+        self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_timer(WATCH_PERIOD, self._watch)
+        self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, 50)
+        self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
         self._publish_status(force=True)
 
     def _refuse(self, why: str) -> None:
@@ -151,11 +188,11 @@ class NavigatorNode(Node):
         return self.missions.nav if self.missions.running else self.nav
 
     def _on_planner_status(self, msg: String) -> None:
-        reason = self._planner.update(msg.data)
+        reason = self._planner.update(msg.data, self.sent)
         if reason is not None and self._nav.fail(reason):
             self._stop()
             self.get_logger().error(f"goal failed: {reason}")
-            self._publish_status()
+        self._publish_status()  # a foreign twist counted changes it too
 
     def _on_odom(self, msg: Odometry) -> None:
         q, p = msg.pose.pose.orientation, msg.pose.pose.position
@@ -187,19 +224,78 @@ class NavigatorNode(Node):
         return resp
 
     def _stop(self) -> None:
+        self.sent.add((0.0, 0.0, 0.0))
         self._cmd.publish(Twist())
 
+    def _hold_reason(self) -> tuple[str, str] | None:
+        """(cause, reason) of a hold of the ACTIVE goal, None when it may walk."""
+        now = time.monotonic()
+        if self._pose is None or now - self._pose_at > self.odom_timeout:
+            return "odometry", "waiting for odometry"
+        if now - self._foreign_at < FOREIGN_HOLD:
+            return "cmd_vel_publisher", foreign_reason(self._other_publishers(), FOREIGN_HOLD)
+        stale = self.freshness.stale_reason(now, self.map_max_age)
+        return None if stale is None else ("map", stale)
+
+    def _held(self) -> bool:
+        """Hold the ACTIVE goal if a cause says so (stop once, the reason in the status, the
+        cause counted and logged); True while held."""
+        hold = self._hold_reason()
+        if hold is None or self._nav.state is not NavState.ACTIVE:
+            return hold is not None
+        cause, reason = hold
+        if self._nav.reason != reason:
+            self._stop()
+            self._nav.reason = reason
+            self.holds[cause] += 1
+            self.get_logger().warning(f"goal held: {reason}")
+            self._publish_status()
+        return True
+
+    def _other_publishers(self) -> list[str]:
+        """The other publishers of cmd_vel on the graph, by full name."""
+        infos = self.get_publishers_info_by_topic(self._cmd.topic_name)
+        return foreign_publishers(((i.node_name, i.node_namespace) for i in infos),
+                                  (self.get_name(), self.get_namespace()))
+
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        """A twist on cmd_vel: another node's when the navigator did not send it."""
+        if not self.sent.echo((msg.linear.x, msg.linear.y, msg.angular.z)):
+            self._foreign_at = time.monotonic()
+            self.foreign_twists += 1
+            if self._nav.state is NavState.ACTIVE:
+                self._held()
+
+    def _watch(self) -> None:
+        """Every `WATCH_PERIOD`: a hold when one is due (a mapper that died sends no map to
+        check on)."""
+        if self._nav.state is NavState.ACTIVE:
+            self._held()
+
+    def _publish_diagnostics(self) -> None:
+        held = self._nav.state is NavState.ACTIVE and self._hold_reason() is not None
+        others = self._other_publishers()
+        warn = held or time.monotonic() - self._foreign_at < FOREIGN_HOLD
+        values = {"state": self._nav.state.value, "refusals": self.refusals,
+                  "last_refusal": self.last_refusal,
+                  **{f"holds_{c}": self.holds[c] for c in ("odometry", "map",
+                                                           "cmd_vel_publisher")},
+                  "foreign_twists_refused": self._planner.foreign,
+                  "foreign_twists_seen": self.foreign_twists,
+                  "other_cmd_vel_publishers": " ".join(others),
+                  "map_age": round(min(self.freshness.age(time.monotonic()), 1e9), 3)}
+        self._diagnostics.publish(counters_array(
+            self, "navigation", HARDWARE_ID, "warn" if warn else "ok",
+            self._nav.reason if held else ("another node publishes cmd_vel" if warn else "ok"),
+            values))
+
     def _on_map(self, msg: OccupancyGrid) -> None:
-        nav = self._nav
-        if nav.state is not NavState.ACTIVE and not self.missions.running:
-            return
-        if self._pose is None or time.monotonic() - self._pose_at > self.odom_timeout:
-            if nav.reason != "waiting for odometry":
-                self._stop()
-                nav.reason = "waiting for odometry"
-                self._publish_status()
-            return
         info = msg.info
+        self.freshness.note(info.map_load_time.sec + 1e-9 * info.map_load_time.nanosec,
+                            self.get_clock().now().nanoseconds * 1e-9, time.monotonic())
+        nav = self._nav
+        if (nav.state is not NavState.ACTIVE and not self.missions.running) or self._held():
+            return
         try:
             view = view_from_grid((info.origin.position.x, info.origin.position.y),
                                   info.resolution, info.width, info.height,
@@ -218,13 +314,17 @@ class NavigatorNode(Node):
         if ended and out.twist is None:
             self._stop()  # a mission that ended in this cycle leaves the robot standing
         if out.twist is not None:
+            self.sent.add(out.twist)
             self._cmd.publish(Twist(linear=_vec(out.twist[0], out.twist[1]),
                                     angular=_vec(0.0, 0.0, out.twist[2])))
         self._publish_status()
 
     def _publish_status(self, force: bool = False) -> None:
         status = {**self._nav.status(), "radius": round(self.radius, 4),
-                  "refusals": self.refusals, "last_refusal": self.last_refusal}
+                  "refusals": self.refusals, "last_refusal": self.last_refusal,
+                  "foreign_twists_refused": self._planner.foreign,
+                  "last_foreign_twist": self._planner.last_foreign,
+                  "foreign_twists_seen": self.foreign_twists}
         text = json.dumps(status)
         if force or text != self._last_status:
             self._last_status = text

@@ -49,8 +49,12 @@ NAVIGATOR_PARAMETERS: tuple[ParamSpec, ...] = (
               "along it [m]", read_only=True, minimum=0.02, maximum=2.0, unit="m"),
     ParamSpec("max_goal_distance", 10.0, "a goal farther from the body is refused (send "
               "waypoints) [m]", read_only=True, minimum=0.1, maximum=1000.0, unit="m"),
-    ParamSpec("odom_timeout", 0.5, "no walking on odometry or a map older than this [s]",
-              read_only=True, minimum=0.05, maximum=10.0, unit="s"),
+    ParamSpec("odom_timeout", 0.5, "no walking on odometry older than this [s] (the goal is "
+              "held, resumed when it returns)", read_only=True, minimum=0.05, maximum=10.0,
+              unit="s"),
+    ParamSpec("map_max_age", 1.0, "no walking on a map whose last fused scan (terrain_map's "
+              "map_load_time) is older than this [s] (the goal is held, resumed when the map "
+              "is fresh again)", read_only=True, minimum=0.1, maximum=10.0, unit="s"),
 )
 
 

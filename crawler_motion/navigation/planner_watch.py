@@ -5,12 +5,16 @@ its gait and timing, `planner.commands.TWIST_BEYOND_LIMITS`) and records it in
 ``planner_status`` (``refusals``, ``last_refusal``). The navigator would send the same twist
 again at every map, and the robot would stand while the goal stays ACTIVE until its timeout.
 `RefusalWatch` tells it instead, from the statuses, so it fails the goal with the planner's
-reason. Other refusals (a pause, a stop in progress) pass and change nothing.
+reason. Other refusals (a pause, a stop in progress) pass and change nothing. A refused twist
+that the navigator did not send (the planner's ``refused_twist`` is none of its recent twists:
+another node publishes ``cmd_vel``) is not blamed on it: counted in `foreign`, the goal goes
+on.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Container
 
 from crawler_motion.planner.commands import TWIST_BEYOND_LIMITS
 
@@ -21,15 +25,18 @@ class RefusalWatch:
     def __init__(self) -> None:
         self.refusals = 0  # the planner's count in its latest status
         self._baseline = 0
+        self.foreign = 0  # refusals of twists the navigator did not send
+        self.last_foreign = ""  # the latest of those
 
     def start(self) -> None:
         """A goal starts: only refusals after this count."""
         self._baseline = self.refusals
 
-    def update(self, text: str) -> str | None:
+    def update(self, text: str, sent: Container[object] | None = None) -> str | None:
         """One ``planner_status`` JSON text: the reason to end the goal, if the planner has
-        refused a twist beyond its limits since `start` (None otherwise, and for a status that
-        is not a JSON object with those keys)."""
+        refused a twist beyond its limits since `start` that is in ``sent`` (the navigator's
+        recent twists; None: every refused twist counts as its own). None otherwise, and for
+        a status that is not a JSON object with those keys."""
         try:
             status = json.loads(text)
             refusals, last = int(status["refusals"]), str(status["last_refusal"] or "")
@@ -37,7 +44,12 @@ class RefusalWatch:
             return None
         new = refusals > self._baseline
         self.refusals = refusals
-        if new and last.startswith(TWIST_BEYOND_LIMITS):
-            self._baseline = refusals
-            return f"the planner refuses the navigator's twists: {last}"
-        return None
+        if not (new and last.startswith(TWIST_BEYOND_LIMITS)):
+            return None
+        self._baseline = refusals
+        refused = status.get("refused_twist")
+        if sent is not None and refused is not None and refused not in sent:
+            self.foreign += 1
+            self.last_foreign = f"the planner refused another publisher's twist: {last}"
+            return None
+        return f"the planner refuses the navigator's twists: {last}"

@@ -32,6 +32,9 @@ class Journal:
         self.stamp = 0.0
         self.refusals = 0
         self.last_refusal: str | None = None
+        #: The twist (vx, vy, wz) of the last refusal of a twist beyond the walk's limits, so a
+        #: navigator can tell its own twists from another publisher's.
+        self.refused_twist: list[float] | None = None
         self.last_event: str | None = None
         self._events: list[tuple[str, str]] = []
 
@@ -49,6 +52,7 @@ class Journal:
     def record_refusal(self, reason: str, now: float) -> None:
         """Count and report a refusal at ``now`` [s]."""
         self.last_refusal = reason
+        self.refused_twist = None
         self.refusals += 1
         self.touch(now)
         self.event("warn", f"refused: {reason}")

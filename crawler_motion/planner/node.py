@@ -63,7 +63,7 @@ from crawler_motion.runtime.diagnostic_names import same_robot
 from crawler_motion.runtime.log import Severity, Throttle, log
 from crawler_motion.runtime.parameters import ParamSpec
 from crawler_motion.runtime.ros_main import run_node
-from crawler_motion.runtime.ros_parameters import descriptor
+from crawler_motion.runtime.ros_parameters import descriptor, parameter_values
 from crawler_motion.runtime.ticker import Ticker, set_process_priority
 
 #: Python thread switch interval of the planner process [s] (the default is 5 ms).
@@ -216,10 +216,7 @@ class PlannerNode(Node):
 
     # ----------------------------------------------------------------- parameters
     def _parameter_values(self, changes: list[Parameter] | None = None) -> dict[str, Any]:
-        values = {spec.name: self.get_parameter(spec.name).value for spec in self._specs}
-        for param in changes or []:
-            values[param.name] = param.value
-        return values
+        return parameter_values(self, self._specs, changes or ())
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         try:

@@ -160,4 +160,7 @@ class WalkRequests:
         try:
             return twist_to_params(vx, vy, wz, self.cfg, base)
         except CommandError as exc:
-            self.ctx.journal.refuse(str(exc), now)
+            journal = self.ctx.journal
+            journal.record_refusal(str(exc), now)
+            journal.refused_twist = [float(vx), float(vy), float(wz)]
+            raise

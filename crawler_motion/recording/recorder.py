@@ -6,7 +6,9 @@ serialised CDR messages unchanged under their ``ros2msg`` schemas, each channel 
 with the QoS their publishers declare (`crawler_motion.recording.qos`), so nothing they publish
 after the recorder started is lost; other topics as soon as the graph poll sees a publisher,
 with the publishers' QoS. A topic that appears late is picked up when it appears; one that never
-appears is simply absent. The output file (and the CAN log) is opened before anything is
+appears is simply absent. Messages the recorder could not keep up with (its queue overflowed)
+are counted from the publishers' sequence numbers (`gaps`) and reported on the progress line
+and at the end. The output file (and the CAN log) is opened before anything is
 subscribed: an unwritable path is one line on stderr and exit status 1.
 """
 
@@ -30,6 +32,7 @@ from rclpy.subscription import Subscription
 from crawler_motion.canbus.bus import UDP_MULTICAST, default_channel
 from crawler_motion.errors import CrawlerMotionError
 from crawler_motion.recording.can_log import CanLog
+from crawler_motion.recording.gaps import SequenceGaps
 from crawler_motion.recording.qos import (
     Qos,
     adapted_qos,
@@ -38,6 +41,7 @@ from crawler_motion.recording.qos import (
     offered_qos_profiles,
     requested_qos,
 )
+from crawler_motion.recording.recovery import recover
 from crawler_motion.recording.sink import McapSink
 from crawler_motion.recording.topics import STACK_TOPICS, absolute
 from crawler_motion.runtime.cli_args import OneLineParser, finite_number
@@ -68,6 +72,7 @@ class RecorderNode(Node):
         self.subscribed: dict[str, str] = {}
         self.requested: dict[str, Qos] = {}
         self.skipped: set[str] = set()
+        self.gaps = SequenceGaps()
         self._recording_subs: dict[str, Subscription] = {}
         self._known = {absolute(t): t for t in STACK_TOPICS}
         for name, topic in self._known.items():
@@ -134,8 +139,11 @@ class RecorderNode(Node):
         return [declared_qos(self._known[name]) if name in self._known
                 else self.requested[name]]
 
-    def on_message(self, topic: str, type_name: str, data: bytes) -> None:
-        """Write one serialised message, stamped with its reception time."""
+    def on_message(self, topic: str, type_name: str, data: bytes, info: dict[str, Any]
+                   ) -> None:
+        """Write one serialised message, stamped with its reception time; count the messages
+        of its publisher missed before it (``info``: rclpy's message info)."""
+        self.gaps.note(topic, info.get("publication_sequence_number"))
         if not self.sink.has_channel(topic):
             self.sink.channel(topic, type_name,
                               {"offered_qos_profiles": offered_qos_profiles(self.offered(topic))})
@@ -160,7 +168,11 @@ def ros_qos(qos: Qos) -> QoSProfile:
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """The recorder's options."""
     parser = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
-    parser.add_argument("-o", "--output", required=True, help="MCAP file to write")
+    parser.add_argument("-o", "--output", default=None, help="MCAP file to write (required "
+                        "unless --recover; with it default <stem>.recovered.mcap)")
+    parser.add_argument("--recover", default=None, metavar="FILE",
+                        help="record nothing: copy the readable messages of FILE, a recording "
+                        "cut by a kill or a power loss, into a complete MCAP file (-o)")
     parser.add_argument("--topics", nargs="+", default=None,
                         help="topics to record (default: every topic on the graph)")
     parser.add_argument("--duration", type=finite_number("--duration", positive=True),
@@ -172,13 +184,30 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--port", type=int, default=0, help="udp_multicast port (0: default)")
     parser.add_argument("--quiet", action="store_true", help="no progress line")
     args, _ros = parser.parse_known_args(argv)
+    if args.output is None and args.recover is None:
+        parser.error("the following arguments are required: -o/--output")
     return args
 
 
-def progress(sink: McapSink, elapsed: float, can_log: CanLog | None) -> str:
-    """The progress line: duration, messages, MB (and CAN frames)."""
+def recover_main(source: str, output: str | None) -> int:
+    """``--recover``: the complete copy of a cut recording; its line, or the error."""
+    try:
+        result = recover(source, output)
+    except CrawlerMotionError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 1
+    cut = f"; cut at: {result.damage}" if result.damage else "; the file was intact"
+    print(f"recovered {result.messages} messages into {result.output}{cut}")
+    return 0
+
+
+def progress(sink: McapSink, elapsed: float, can_log: CanLog | None,
+             gaps: SequenceGaps | None = None) -> str:
+    """The progress line: duration, messages, MB (dropped messages, CAN frames)."""
     line = (f"recording {sink.path}: {elapsed:7.1f} s, {sink.messages:8d} messages, "
             f"{sink.size() / 1e6:7.2f} MB")
+    if gaps is not None and gaps.total:
+        line += f", {gaps.total} dropped"
     return line + (f", {can_log.counter.frames} CAN frames" if can_log else "")
 
 
@@ -190,8 +219,8 @@ def _spin(node: RecorderNode, duration: float | None, quiet: bool,
         rclpy.spin_once(node, timeout_sec=0.1)
         if not quiet and time.monotonic() - last >= PROGRESS_PERIOD:
             last = time.monotonic()
-            print("\r" + progress(node.sink, last - start, can_log), end="", file=sys.stderr,
-                  flush=True)
+            print("\r" + progress(node.sink, last - start, can_log, node.gaps), end="",
+                  file=sys.stderr, flush=True)
 
 
 def _open(args: argparse.Namespace) -> tuple[McapSink, CanLog | None]:
@@ -211,6 +240,8 @@ def _open(args: argparse.Namespace) -> tuple[McapSink, CanLog | None]:
 def main(argv: Sequence[str] | None = None) -> int:
     """Record until ``--duration`` or Ctrl-C / SIGTERM; returns the exit status."""
     args = parse_args(sys.argv[1:] if argv is None else argv)
+    if args.recover is not None:
+        return recover_main(args.recover, args.output)
     try:
         sink, can_log = _open(args)
     except CrawlerMotionError as exc:
@@ -232,7 +263,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         status = _close(sink, can_log, node) or status
         if not args.quiet:  # the last line, also after Ctrl-C / SIGTERM (and rclpy's warnings)
-            print("\r" + progress(sink, time.monotonic() - start, can_log), file=sys.stderr)
+            print("\r" + progress(sink, time.monotonic() - start, can_log,
+                                  node.gaps if node else None), file=sys.stderr)
     return status
 
 
@@ -249,6 +281,10 @@ def _close(sink: McapSink, can_log: CanLog | None, node: RecorderNode | None) ->
     if node is not None:
         if node.missing():
             print(f"{PROG}: never published: {', '.join(node.missing())}", file=sys.stderr)
+        if node.gaps.total:
+            worst = ", ".join(f"{t} {n}" for t, n in node.gaps.dropped.most_common(5) if n)
+            print(f"{PROG}: {node.gaps.total} messages dropped (not kept up with): {worst}",
+                  file=sys.stderr)
         node.destroy_node()
     rclpy.try_shutdown()
     return status

@@ -1,9 +1,11 @@
 """The MCAP file of a recording: ROS 2 profile, ``ros2msg`` schemas, CDR messages, small chunks.
 
 Messages arrive already CDR-serialised (as the middleware delivered them), so nothing is
-re-encoded. Chunks are small and each is closed and written out when full or a second old, so a
-recording that is killed or runs out of disk keeps everything up to its last closed chunk
-readable.
+re-encoded. Chunks are small and each is closed and written out (to the operating system) when
+full or a second old, so a recording that is killed or runs out of disk keeps everything up to
+its last closed chunk: `reader` and ``crawler-motion report`` read it as it is; the standard
+MCAP readers need the summary it lacks, so ``crawler-motion record --recover FILE`` writes a
+complete copy (`recovery`).
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ class McapSink:
             if time.monotonic() - self._flushed >= FLUSH_PERIOD:
                 self._flushed = time.monotonic()
                 self.writer.flush()  # closes the chunk and writes it out
+                self.stream.flush()  # to the operating system: a SIGKILL cannot lose it
         except OSError as exc:
             self.abort()
             raise RecordingError(

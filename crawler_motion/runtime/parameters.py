@@ -103,3 +103,18 @@ def validate_parameters(specs: Iterable[ParamSpec], values: Mapping[str, Any]) -
         reasons.append(f"unknown {unknown}: each unknown parameter is refused; the known "
                        f"ones are {sorted(table)}")
     return reasons
+
+
+#: The words YAML 1.1 (the ROS command line's ``-p name:=value`` and parameter files) reads as
+#: booleans: a choice spelled so arrives as a bool.
+YAML_BOOLEANS = {True: ("true", "yes", "on", "y"), False: ("false", "no", "off", "n")}
+
+
+def choice_from_yaml(spec: ParamSpec, value: Any) -> Any:
+    """``value`` of ``spec`` as written: a bool given to a choice parameter is the one choice
+    YAML reads as that bool (``-p attitude_mode:=off`` arrives as False and is ``"off"``);
+    anything else unchanged (a bool no choice matches is refused by `validate_parameters`)."""
+    if not (spec.choices and isinstance(value, bool)):
+        return value
+    words = [c for c in spec.choices if c.lower() in YAML_BOOLEANS[value]]
+    return words[0] if len(words) == 1 else value

@@ -70,7 +70,8 @@ def render(cfg: Config) -> str:
         "Ranges and choices of the gait defaults come from the shipped `config/robot.yaml`. "
         "Set them as usual: `--ros-args -p name:=value`, or all at once from a parameter "
         "file: `--ros-args --params-file config/params.yaml` (every node's defaults, "
-        "generated alongside this page).",
+        "generated alongside this page). A choice that YAML reads as a boolean is taken as "
+        "written (`-p attitude_mode:=off`: YAML's false is the choice `off`).",
         "",
         "## planner_node",
         "",

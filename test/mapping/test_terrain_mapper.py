@@ -115,3 +115,17 @@ def test_bad_scans_are_skipped_with_counted_reasons(mount: Mount) -> None:
                                              OdometryVerdict.BAD_POSE: 1}
     assert mapper.scans_fused == 1 and mapper.grid.known.sum() == 2
     assert np.isfinite(mapper.grid.height).all()
+
+
+def test_the_stamp_of_the_last_fused_scan_dates_the_content(mount: Mount) -> None:
+    mapper = TerrainMapper(MapperSettings(odom_window=1.0), mount)
+    good = np.array([[0.5, 0.0, 0.0], [0.6, 0.1, 0.0]])
+    assert mapper.last_fused_stamp is None
+    for k in range(11):
+        mapper.add_odometry(Pose(0.1 * k, np.eye(3), np.array([0.0, 0.0, BODY_Z])))
+    assert mapper.add_scan(good, 0.95) is ScanFate.FUSED
+    assert mapper.add_scan(good, 5.0) is SkipReason.AHEAD_OF_ODOMETRY  # skipped: no change
+    assert mapper.last_fused_stamp == 0.95
+    for k in range(10):  # a restarted odometry: the map is cleared, nothing fused since
+        mapper.add_odometry(Pose(0.05 * k, np.eye(3), np.array([0.0, 0.0, BODY_Z])))
+    assert mapper.last_fused_stamp is None

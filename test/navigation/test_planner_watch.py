@@ -108,3 +108,20 @@ def test_the_navigator_node_fails_its_goal_when_the_planner_refuses_its_twists()
         nav.destroy_node()
         probe.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+def test_a_refused_twist_the_navigator_did_not_send_is_not_blamed_on_it():
+    from crawler_motion.navigation.guards import SentTwists
+
+    sent = SentTwists()
+    sent.add((0.04, 0.0, 0.0))
+    watch = RefusalWatch()
+    watch.start()
+    foreign = json.loads(status(1, refusal_of(1e6)))
+    foreign["refused_twist"] = [1e6, 0.0, 0.0]  # another node's twist
+    assert watch.update(json.dumps(foreign), sent) is None
+    assert watch.foreign == 1 and "another publisher" in watch.last_foreign
+    own = json.loads(status(2, refusal_of(0.08)))
+    own["refused_twist"] = [0.08, 0.0, 0.0]
+    sent.add((0.08, 0.0, 0.0))
+    assert watch.update(json.dumps(own), sent).startswith("the planner refuses the navigator")

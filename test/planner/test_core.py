@@ -809,3 +809,15 @@ def test_a_new_walks_upfront_check_can_run_before_the_command(monkeypatch):
     assert len(calls) == 1
     core.on_twist(0.05, 0.0, 0.0, clock.t)
     assert core.state == WALKING and len(calls) == 1
+
+
+def test_a_twist_refused_as_beyond_the_limits_is_named_in_the_status():
+    clock = standing()
+    with pytest.raises(CommandError):
+        clock.core.on_twist(1e6, 0.0, 0.0, clock.t)
+    status = clock.core.status()
+    assert status["refused_twist"] == [1e6, 0.0, 0.0] and "cmd_vel speed" in status[
+        "last_refusal"]
+    with pytest.raises(CommandError):
+        clock.send('{"command": "reset"}')  # another refusal: no twist named
+    assert clock.core.status()["refused_twist"] is None

@@ -440,3 +440,23 @@ def test_fault_levels_pause_on_their_own_robots_statuses_only(namespace, names, 
     statuses = [DiagnosticStatus(level=DiagnosticStatus.ERROR, name=name, message="bad",
                                  hardware_id="motor_manager") for name in names]
     assert FaultLevels().update(statuses, "motor_manager", namespace)[0] is faulted
+
+
+@pytest.mark.parametrize("mode", ["off", "imu", "stance_plane"])
+def test_a_documented_choice_is_accepted_from_the_command_line(mode, tmp_path):
+    """``-p attitude_mode:=off``: YAML reads off as false; the planner takes it as "off"."""
+    log = tmp_path / "planner.log"
+    with open(log, "w") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "crawler_motion.planner.node", "--ros-args", "-p",
+             "foothold_adapt:=true", "-p", f"attitude_mode:={mode}", "-p", "tick_priority:=0"],
+            stdout=out, stderr=subprocess.STDOUT, text=True)
+    try:
+        end = time.monotonic() + 20.0
+        while time.monotonic() < end and proc.poll() is None and "planner ready" not in (
+                log.read_text()):
+            time.sleep(0.1)
+        assert proc.poll() is None and "planner ready" in log.read_text(), log.read_text()
+    finally:
+        proc.kill()
+        proc.wait()

@@ -87,3 +87,14 @@ def test_ros_descriptor():
     d = descriptor(ParamSpec("mode", "hold", "m", read_only=True, choices=("hold", "disable")))
     assert d.read_only and d.additional_constraints == "one of ['hold', 'disable']"
     assert not descriptor(FLAG).integer_range and not descriptor(FLAG).floating_point_range
+
+
+def test_a_choice_yaml_reads_as_a_bool_is_given_back_as_written() -> None:
+    from crawler_motion.runtime.parameters import ParamSpec, choice_from_yaml
+
+    spec = ParamSpec("attitude_mode", "stance_plane", "where", choices=("stance_plane", "imu",
+                                                                        "off"))
+    assert choice_from_yaml(spec, False) == "off" and choice_from_yaml(spec, "imu") == "imu"
+    assert choice_from_yaml(spec, True) is True  # no choice reads as true: refused later
+    plain = ParamSpec("flag", False, "a bool")
+    assert choice_from_yaml(plain, False) is False

@@ -1,0 +1,181 @@
+"""The navigator process against a scripted map, odometry and planner: a map stale in content
+or another cmd_vel publisher holds the goal (zero twist, the reason in navigation_status, the
+counters in /diagnostics) and it resumes when the cause is gone; a refusal of another
+publisher's twist does not fail the goal."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+from builtin_interfaces.msg import Time  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from geometry_msgs.msg import PoseStamped, Twist  # noqa: E402
+from nav_msgs.msg import OccupancyGrid, Odometry  # noqa: E402
+from rclpy.qos import DurabilityPolicy, QoSProfile  # noqa: E402
+from std_msgs.msg import String  # noqa: E402
+
+from crawler_motion.testing.stack import (  # noqa: E402
+    StackProcesses,
+    isolated_env,
+    node_command,
+    ros_args,
+)
+
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+class World:
+    """Odometry at the origin and a free 2 m map at 10 Hz whose content stamp the test sets."""
+
+    def __init__(self) -> None:
+        self.node = rclpy.create_node("holds_world")
+        n = self.node
+        self.fresh = True  # map_load_time follows the clock
+        self.mapper_alive = True  # maps published
+        self.racing = False  # another publisher sends zero twists
+        self.load = Time()
+        self.status: dict = {}
+        self.twists: list[Twist] = []
+        self.diagnostics: dict[str, dict[str, str]] = {}
+        self._odom = n.create_publisher(Odometry, "odom", 10)
+        self._map = n.create_publisher(OccupancyGrid, "terrain_map", 2)
+        self.goal = n.create_publisher(PoseStamped, "goal_pose", 10)
+        self.planner = n.create_publisher(String, "planner_status", LATCHED)
+        n.create_subscription(String, "navigation_status", self._on_status, LATCHED)
+        n.create_subscription(Twist, "cmd_vel", self.twists.append, 50)
+        n.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, 10)
+        n.create_timer(0.1, self._tick)
+
+    def _on_status(self, msg: String) -> None:
+        self.status = json.loads(msg.data)
+
+    def _on_diag(self, msg: DiagnosticArray) -> None:
+        for s in msg.status:
+            self.diagnostics[s.name] = {kv.key: kv.value for kv in s.values}
+
+    def _tick(self) -> None:
+        now = self.node.get_clock().now().to_msg()
+        odom = Odometry()
+        odom.header.stamp, odom.header.frame_id = now, "odom"
+        odom.pose.pose.orientation.w = 1.0
+        self._odom.publish(odom)
+        if self.fresh:
+            self.load = now
+        if not self.mapper_alive:
+            return
+        grid = OccupancyGrid()
+        grid.header.stamp, grid.header.frame_id = now, "odom"
+        grid.info.resolution, grid.info.width, grid.info.height = 0.05, 40, 40
+        grid.info.origin.position.x = grid.info.origin.position.y = -1.0
+        grid.info.map_load_time = self.load
+        grid.data = [0] * 1600
+        self._map.publish(grid)
+
+    def send_goal(self, x: float) -> None:
+        msg = PoseStamped()
+        msg.header.frame_id = "odom"
+        msg.pose.position.x = x
+        self.goal.publish(msg)
+
+    def spin_until(self, cond: Callable[[], bool], timeout: float) -> bool:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            rclpy.spin_once(self.node, timeout_sec=0.05)
+            if cond():
+                return True
+        return False
+
+    def nav_twists(self) -> list[Twist]:
+        return [t for t in self.twists if t.linear.x != 0.0 or not self.racing]
+
+    def walking(self) -> bool:
+        return bool(self.twists) and self.twists[-1].linear.x > 0.0
+
+    def stopped(self) -> bool:
+        return bool(self.twists) and self.twists[-1].linear.x == 0.0
+
+
+def test_a_stale_map_or_another_cmd_vel_publisher_holds_the_goal(tmp_path: Path,
+                                                                  ros_domain: int) -> None:
+    procs = StackProcesses(tmp_path)
+    procs.start({"navigator": [*node_command("navigator"),
+                               *ros_args({"map_max_age": 0.5, "timeout": 60.0})]},
+                isolated_env(ros_domain))
+    world = World()
+    try:
+        assert world.spin_until(lambda: world.status.get("state") == "IDLE", 20.0), (
+            procs.log_tails(20))
+        world.send_goal(0.8)
+        assert world.spin_until(world.walking, 5.0), procs.log_tails(20)
+        # the mapper stops fusing: maps keep coming with fresh stamps, the content ages
+        world.fresh = False
+        assert world.spin_until(lambda: "fresh map" in world.status.get("reason", ""), 3.0), (
+            world.status)
+        assert world.status["state"] == "ACTIVE" and world.spin_until(world.stopped, 1.0)
+        held_at = len(world.twists)
+        world.spin_until(lambda: False, 0.5)
+        assert all(t.linear.x == 0.0 for t in world.twists[held_at - 1:])
+        assert world.spin_until(lambda: world.diagnostics.get(
+            "navigator: navigation", {}).get("holds_map", "0") != "0", 3.0), world.diagnostics
+        world.fresh = True  # fusing again: the goal resumes from the measured pose
+        assert world.spin_until(world.walking, 3.0), world.status
+        assert world.spin_until(lambda: world.status["reason"] == "", 1.0), world.status
+        # another node's publisher that sends nothing (an idle console) holds nothing
+        other = world.node.create_publisher(Twist, "cmd_vel", 10)
+        world.spin_until(lambda: False, 1.0)
+        assert world.status["reason"] == "" and world.walking(), world.status
+        # its zero twists at 50 Hz: held with the reason (no stop and start), named
+        world.node.create_timer(0.02, lambda: other.publish(Twist()) if world.racing else None)
+        world.racing = True
+        assert world.spin_until(lambda: "another node steers" in world.status.get(
+            "reason", ""), 3.0), world.status
+        assert "/holds_world" in world.status["reason"]
+        mark = len(world.nav_twists())
+        world.spin_until(lambda: False, 1.5)
+        assert all(t.linear.x == 0.0 for t in world.nav_twists()[mark:])  # no walk restarted
+        world.racing = False  # the other node stops: the goal resumes
+        assert world.spin_until(world.walking, 3.0), world.status
+        # one 1e6 m/s twist of the other node: a hold of FOREIGN_HOLD, then the goal goes on
+        fast = Twist()
+        fast.linear.x = 1e6
+        other.publish(fast)
+        assert world.spin_until(lambda: "another node steers" in world.status.get(
+            "reason", ""), 3.0), world.status
+        assert world.spin_until(lambda: world.walking() and world.twists[-1].linear.x < 1.0,
+                                3.0), world.status
+        # the planner refuses a twist the navigator never sent: counted, the goal goes on
+        world.planner.publish(String(data=json.dumps({
+            "refusals": 1, "refused_twist": [1e6, 0.0, 0.0],
+            "last_refusal": "cmd_vel speed 1e+06 m/s exceeds the maximum 0.06 m/s"})))
+        assert world.spin_until(lambda: world.status.get("foreign_twists_refused") == 1, 3.0)
+        assert world.status["state"] == "ACTIVE", world.status
+        assert world.spin_until(world.walking, 3.0)
+    finally:
+        world.node.destroy_node()
+        procs.stop()
+
+
+def test_a_dead_mapper_holds_the_goal_with_the_reason(tmp_path: Path, ros_domain: int) -> None:
+    procs = StackProcesses(tmp_path)
+    procs.start({"navigator": [*node_command("navigator"),
+                               *ros_args({"map_max_age": 0.5})]}, isolated_env(ros_domain))
+    world = World()
+    try:
+        assert world.spin_until(lambda: world.status.get("state") == "IDLE", 20.0), (
+            procs.log_tails(20))
+        world.send_goal(0.8)
+        assert world.spin_until(world.walking, 5.0), procs.log_tails(20)
+        world.mapper_alive = False  # no map at all any more
+        assert world.spin_until(lambda: "fresh map" in world.status.get("reason", ""), 3.0), (
+            world.status)
+        assert world.spin_until(world.stopped, 1.0) and world.status["state"] == "ACTIVE"
+    finally:
+        world.node.destroy_node()
+        procs.stop()
