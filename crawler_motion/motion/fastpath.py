@@ -8,8 +8,8 @@ and is what the planner's tick runs:
 
 - `Track` holds rows of `Piecewise` trajectories (a gait slot's feet, or a joint-space move)
   as tuples of coefficients and the active segment of each (found again with `bisect` only
-  when the time leaves it), and evaluates position and velocity with the Horner recurrence of
-  `trajectory.evaluate_polynomial`;
+
+
 - `FastKinematics` is the closed-form IK and the analytic Jacobian inverse of
   `crawler_motion.model.kinematics`, operation for operation, for all legs; with calibrated
   legs the Newton refinement of `fastchain.ScalarLeg` (the float form of
@@ -54,7 +54,8 @@ _TWO_PI = 2.0 * math.pi
 #: Highest polynomial degree a `Track` evaluates (sextic; lower degrees are zero-padded).
 DEGREE = 6
 
-#: One segment of one row set: start [s], duration [s], end [s], coefficient rows (7 each).
+#: One segment of one row set: start [s], duration [s], end [s], rows of the 7 coefficients
+#: of the position and the 6 of the velocity.
 _Segment = tuple[float, float, float, tuple[tuple[float, ...], ...]]
 
 
@@ -73,9 +74,13 @@ def _segments(pw: Piecewise, dims: int) -> tuple[list[float], tuple[_Segment, ..
     for k, seg in enumerate(pw.segments):
         coeffs[k, :, :seg.coeffs.shape[1]] = seg.coeffs
     breaks = [float(b) for b in pw.breaks]
+    durations = [float(x) for x in pw.durations]
+    # each row: the 7 coefficients of p(u), then the 6 of p'(u) / duration (planned once)
     return breaks, tuple(
-        (breaks[k], float(pw.durations[k]), breaks[k + 1],
-         tuple(tuple(float(x) for x in row) for row in coeffs[k]))
+        (breaks[k], durations[k], breaks[k + 1],
+         tuple((*(float(x) for x in row),
+                *(float(n * row[n] / durations[k]) for n in range(1, DEGREE + 1)))
+               for row in coeffs[k]))
         for k in range(len(pw.segments)))
 
 
@@ -127,22 +132,10 @@ class Track:
             elif tau > duration:
                 tau = duration
             u = tau / duration
-            for c0, c1, c2, c3, c4, c5, c6 in rows:
-                # Horner for p and p' in u, in the order of `evaluate_polynomial`.
-                v = c6
-                p = c6 * u + c5
-                v = v * u + p
-                p = p * u + c4
-                v = v * u + p
-                p = p * u + c3
-                v = v * u + p
-                p = p * u + c2
-                v = v * u + p
-                p = p * u + c1
-                v = v * u + p
-                p = p * u + c0
-                pos.append(p)
-                vel.append(v / duration)
+            for c0, c1, c2, c3, c4, c5, c6, d1, d2, d3, d4, d5, d6 in rows:
+                # Horner in u for p and for p' (its coefficients scaled by 1 / duration)
+                pos.append((((((c6 * u + c5) * u + c4) * u + c3) * u + c2) * u + c1) * u + c0)
+                vel.append(((((d6 * u + d5) * u + d4) * u + d3) * u + d2) * u + d1)
         return pos, vel
 
 
@@ -299,8 +292,12 @@ class FastKinematics:
               ) -> tuple[list[float], list[float]]:
         """`inverse` (limits checked) then `velocities`: joint angles [rad] and rates [rad/s]
         (flat) for foot positions [m] and velocities [m/s] (flat)."""
-        q = self.inverse(feet)
         chains = self._chains
+        if chains is None:
+            fast = _nominal(self, feet, foot_velocity)
+            if fast is not None:
+                return fast
+        q = self.inverse(feet)
         if chains is not None and len(foot_velocity) == 3 * self.n_legs:
             kept = self._kept
             v = foot_velocity
@@ -335,6 +332,56 @@ class FastKinematics:
         q = np.asarray(angles, dtype=float).reshape(self.n_legs, 3)
         v = np.asarray(foot_velocity, dtype=float).reshape(self.n_legs, 3)
         return kinematics.joint_velocities(self.robot, q, v).reshape(-1).tolist()
+
+
+def _nominal(kin: FastKinematics, feet: Sequence[float], foot_velocity: Sequence[float]
+             ) -> tuple[list[float], list[float]] | None:
+    """`FastKinematics.inverse` then `velocities` of nominal legs in one pass, operation for
+    operation (same numbers); None when a leg leaves the fast path (out of reach or of the
+    limits, near a singularity, wrong sizes): the caller then takes the two calls."""
+    n = 3 * kin.n_legs
+    if len(feet) != n or len(foot_velocity) != n:
+        return None
+    d_hi, d_lo, l2sq, l3sq, den, _, _, inside = kin._lim
+    lo0, lo1, lo2, hi0, hi1, hi2 = inside
+    l1, l2, l3 = kin.l1, kin.l2, kin.l3
+    axis, singular = kinematics.AXIS_EPS, kinematics.SINGULAR_EPS
+    q: list[float] = []
+    qd: list[float] = []
+    j = 0
+    for hx, hy, hz, yaw0, sign in kin._legs:
+        qx, qy, w = feet[j] - hx, feet[j + 1] - hy, feet[j + 2] - hz
+        r = math.hypot(qx, qy)
+        u = r - l1
+        d2 = u * u + w * w
+        d = math.sqrt(d2)
+        if not (d_lo <= d <= d_hi and r >= axis):  # also NaN / inf
+            return None
+        ck = (d2 - l2sq - l3sq) / den
+        knee = sign * math.acos(-1.0 if ck < -1.0 else (1.0 if ck > 1.0 else ck))
+        sk = math.sin(knee)
+        shoulder = _wrap(math.atan2(w, u) + math.atan2(l3 * sk, l2 + l3 * math.cos(knee)))
+        root = _wrap(math.atan2(qy, qx) - yaw0)
+        if not (lo0 <= root <= hi0 and lo1 <= shoulder <= hi1 and lo2 <= knee <= hi2):
+            return None
+        tibia = shoulder - knee
+        s2, c2 = math.sin(shoulder), math.cos(shoulder)
+        s23, c23 = math.sin(tibia), math.cos(tibia)
+        rr = l1 + (l2 * c2 + l3 * c23)
+        det = l2 * l3 * sk
+        if not (abs(rr) >= axis and abs(det) >= singular):
+            return None
+        yaw = yaw0 + root
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        vx, vy, w_dot = foot_velocity[j], foot_velocity[j + 1], foot_velocity[j + 2]
+        r_dot = cy * vx + sy * vy
+        j11, j12 = -l2 * s2 - l3 * s23, l3 * s23
+        j21, j22 = l2 * c2 + l3 * c23, -l3 * c23
+        q += (root, shoulder, knee)
+        qd += ((-sy * vx + cy * vy) / rr, (j22 * r_dot - j12 * w_dot) / det,
+               (-j21 * r_dot + j11 * w_dot) / det)
+        j += 3
+    return q, qd
 
 
 def joint_targets(feet: Track, kin: FastKinematics, t: float
