@@ -150,8 +150,8 @@ class FrameCodec:
 
     def _check_joint_range(self, q: np.ndarray, what: str, margin: float) -> None:
         joints = self._joints
-        if ((q >= joints.lower - margin) & (q <= joints.upper + margin)).all():
-            return  # all within (NaN fails the comparisons): no joint to name
+        if ((q >= joints.lower - margin) & (q <= joints.upper + margin)).all():  # NaN: no
+            return
         for i, value in enumerate(q):
             if joints.within(i, value, margin):
                 continue
