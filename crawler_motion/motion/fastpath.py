@@ -45,23 +45,18 @@ from crawler_motion.model import kinematics
 from crawler_motion.model.config import RobotConfig
 from crawler_motion.model.leg_geometry import joint_frames
 from crawler_motion.motion.fastchain import ScalarLeg
+from crawler_motion.motion.fastsolve import calibrated_solve, nominal_solve, wrap
 from crawler_motion.motion.trajectory import Piecewise
 
 __all__ = ["DEGREE", "FastKinematics", "Track", "joint_targets"]
 
 _PI = math.pi
-_TWO_PI = 2.0 * math.pi
 #: Highest polynomial degree a `Track` evaluates (sextic; lower degrees are zero-padded).
 DEGREE = 6
 
 #: One segment of one row set: start [s], duration [s], end [s], rows of the 7 coefficients
 #: of the position and the 6 of the velocity.
 _Segment = tuple[float, float, float, tuple[tuple[float, ...], ...]]
-
-
-def _wrap(angle: float) -> float:
-    """Wrap to (-pi, pi] exactly like `kinematics._wrap`."""
-    return _PI - (_PI - angle) % _TWO_PI
 
 
 def _segments(pw: Piecewise, dims: int) -> tuple[list[float], tuple[_Segment, ...]]:
@@ -213,9 +208,9 @@ class FastKinematics:
                 ck = (d2 - l2sq - l3sq) / den
                 ck = -1.0 if ck < -1.0 else (1.0 if ck > 1.0 else ck)
                 knee = sign * math.acos(ck)
-                shoulder = _wrap(math.atan2(w, u) + math.atan2(l3 * math.sin(knee),
+                shoulder = wrap(math.atan2(w, u) + math.atan2(l3 * math.sin(knee),
                                                                l2 + l3 * math.cos(knee)))
-                root = _wrap(math.atan2(qy, qx) - yaw0)
+                root = wrap(math.atan2(qy, qx) - yaw0)
                 angles = (root, shoulder, knee)
                 if chains is not None:
                     angles = chains[i].cold(fx, fy, fz, angles, sign)
@@ -240,7 +235,7 @@ class FastKinematics:
         out = []
         for k, angle in enumerate(angles):
             if not -_PI < angle <= _PI:
-                angle = _wrap(angle)
+                angle = wrap(angle)
             lo, hi = lower[k], upper[k]
             if angle < lo:
                 if angle >= lo - kinematics.LIMIT_EPS:
@@ -293,10 +288,10 @@ class FastKinematics:
         """`inverse` (limits checked) then `velocities`: joint angles [rad] and rates [rad/s]
         (flat) for foot positions [m] and velocities [m/s] (flat)."""
         chains = self._chains
-        if chains is None:
-            fast = _nominal(self, feet, foot_velocity)
-            if fast is not None:
-                return fast
+        fast = (nominal_solve(self, feet, foot_velocity) if chains is None
+                else calibrated_solve(self, chains, feet, foot_velocity))
+        if fast is not None:
+            return fast
         q = self.inverse(feet)
         if chains is not None and len(foot_velocity) == 3 * self.n_legs:
             kept = self._kept
@@ -332,56 +327,6 @@ class FastKinematics:
         q = np.asarray(angles, dtype=float).reshape(self.n_legs, 3)
         v = np.asarray(foot_velocity, dtype=float).reshape(self.n_legs, 3)
         return kinematics.joint_velocities(self.robot, q, v).reshape(-1).tolist()
-
-
-def _nominal(kin: FastKinematics, feet: Sequence[float], foot_velocity: Sequence[float]
-             ) -> tuple[list[float], list[float]] | None:
-    """`FastKinematics.inverse` then `velocities` of nominal legs in one pass, operation for
-    operation (same numbers); None when a leg leaves the fast path (out of reach or of the
-    limits, near a singularity, wrong sizes): the caller then takes the two calls."""
-    n = 3 * kin.n_legs
-    if len(feet) != n or len(foot_velocity) != n:
-        return None
-    d_hi, d_lo, l2sq, l3sq, den, _, _, inside = kin._lim
-    lo0, lo1, lo2, hi0, hi1, hi2 = inside
-    l1, l2, l3 = kin.l1, kin.l2, kin.l3
-    axis, singular = kinematics.AXIS_EPS, kinematics.SINGULAR_EPS
-    q: list[float] = []
-    qd: list[float] = []
-    j = 0
-    for hx, hy, hz, yaw0, sign in kin._legs:
-        qx, qy, w = feet[j] - hx, feet[j + 1] - hy, feet[j + 2] - hz
-        r = math.hypot(qx, qy)
-        u = r - l1
-        d2 = u * u + w * w
-        d = math.sqrt(d2)
-        if not (d_lo <= d <= d_hi and r >= axis):  # also NaN / inf
-            return None
-        ck = (d2 - l2sq - l3sq) / den
-        knee = sign * math.acos(-1.0 if ck < -1.0 else (1.0 if ck > 1.0 else ck))
-        sk = math.sin(knee)
-        shoulder = _wrap(math.atan2(w, u) + math.atan2(l3 * sk, l2 + l3 * math.cos(knee)))
-        root = _wrap(math.atan2(qy, qx) - yaw0)
-        if not (lo0 <= root <= hi0 and lo1 <= shoulder <= hi1 and lo2 <= knee <= hi2):
-            return None
-        tibia = shoulder - knee
-        s2, c2 = math.sin(shoulder), math.cos(shoulder)
-        s23, c23 = math.sin(tibia), math.cos(tibia)
-        rr = l1 + (l2 * c2 + l3 * c23)
-        det = l2 * l3 * sk
-        if not (abs(rr) >= axis and abs(det) >= singular):
-            return None
-        yaw = yaw0 + root
-        cy, sy = math.cos(yaw), math.sin(yaw)
-        vx, vy, w_dot = foot_velocity[j], foot_velocity[j + 1], foot_velocity[j + 2]
-        r_dot = cy * vx + sy * vy
-        j11, j12 = -l2 * s2 - l3 * s23, l3 * s23
-        j21, j22 = l2 * c2 + l3 * c23, -l3 * c23
-        q += (root, shoulder, knee)
-        qd += ((-sy * vx + cy * vy) / rr, (j22 * r_dot - j12 * w_dot) / det,
-               (-j21 * r_dot + j11 * w_dot) / det)
-        j += 3
-    return q, qd
 
 
 def joint_targets(feet: Track, kin: FastKinematics, t: float
