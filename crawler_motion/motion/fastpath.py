@@ -114,9 +114,8 @@ class Track:
         t = float(t)
         pos: list[float] = []
         vel: list[float] = []
-        active = self._active
-        for piece in range(self.n_pieces):
-            seg = active[piece]
+        put_p, put_v = pos.append, vel.append
+        for piece, seg in enumerate(self._active):
             # The active segment serves [start, end); the last one also holds past its end.
             if not (seg[0] <= t < seg[2]):
                 seg = self._segment(piece, t)
@@ -129,8 +128,8 @@ class Track:
             u = tau / duration
             for c0, c1, c2, c3, c4, c5, c6, d1, d2, d3, d4, d5, d6 in rows:
                 # Horner in u for p and for p' (its coefficients scaled by 1 / duration)
-                pos.append((((((c6 * u + c5) * u + c4) * u + c3) * u + c2) * u + c1) * u + c0)
-                vel.append(((((d6 * u + d5) * u + d4) * u + d3) * u + d2) * u + d1)
+                put_p((((((c6 * u + c5) * u + c4) * u + c3) * u + c2) * u + c1) * u + c0)
+                put_v(((((d6 * u + d5) * u + d4) * u + d3) * u + d2) * u + d1)
         return pos, vel
 
 
