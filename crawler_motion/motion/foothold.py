@@ -229,11 +229,14 @@ class FootholdAdapter:
         running); forgets the swings that have ended by ``now`` [s] (the update's bookkeeping
         when there are no contacts)."""
         quiet = True
+        held = Mode.HELD
         for leg in self._legs:
-            if leg.swing is not None and now >= leg.swing.t_end - TIME_EPS:
+            swing = leg.swing
+            if swing is not None and now >= swing.t_end - TIME_EPS:
                 leg.swing = None
             leg.pressed = 0
-            quiet = quiet and leg.mode is Mode.HELD and leg.value == 0.0
+            if leg.mode is not held or leg.value != 0.0:
+                quiet = False
         return quiet
 
     def update(self, now: float, z_plan: Sequence[float],

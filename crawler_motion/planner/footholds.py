@@ -22,7 +22,7 @@ from crawler_motion.motion.attitude import (
     stance_plane,
 )
 from crawler_motion.motion.contact_estimation import FootContact
-from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
+from crawler_motion.motion.fastpath import FastKinematics, Track
 from crawler_motion.motion.foothold import FootholdAdapter, FootholdSettings, lowering_start
 from crawler_motion.motion.gait import Slot, check_trajectories
 from crawler_motion.motion.stumble import (
@@ -161,9 +161,9 @@ class Footholds:
         if self.replanned is not None:  # a stumble's retry replaced the slot's track
             track = self.replanned
         states, forces, totals, stamp = self._estimate()
-        if states is None and self.adapter.quiet(clock) and self.pose.quiet():
-            return joint_targets(track, kin, t)  # the blind plan, at its cost
         pos, vel = track.evaluate(t)
+        if states is None and self.adapter.quiet(clock) and self.pose.quiet():
+            return kin.solve(pos, vel)  # the blind plan, at its cost
         if states is not None and totals is not None and self.stumble.enabled:
             retried = self._stumbles(track, t, states, totals, pos, stamp)
             if retried is not track:

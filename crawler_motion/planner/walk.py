@@ -229,8 +229,9 @@ class WalkController:
                                    f"twist): stopping into standing")
         if self.waiting:  # the planner core resumes it from the measured pose (`thaw`)
             return ctx.hold
-        if not self._boundaries(now):
-            return ctx.hold
+        slot = self.slot
+        if (slot is None or now >= self.slot_t0 + slot.duration) and not self._boundaries(now):
+            return ctx.hold  # (within the slot: no boundary to cross, no call)
         assert self.track is not None
         try:  # plain-float IK + Jacobian: same numbers and errors as the numpy functions
             q, qd = self.foothold.targets(self.track, self._kin, now, self.slot_t0)
