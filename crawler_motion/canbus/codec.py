@@ -150,9 +150,9 @@ class FrameCodec:
 
     def _check_joint_range(self, q: np.ndarray, what: str, margin: float) -> None:
         joints = self._joints
-        for i, value in enumerate(q):
-            if joints.within(i, value, margin):
-                continue
+        ok = (q >= joints.lower - margin) & (q <= joints.upper + margin)  # NaN: not ok
+        for i in np.flatnonzero(~ok)[:1]:  # the first joint out of its range
+            value = float(q[i])
             joint, lo, hi = joints.joint_names[i], joints.lower[i], joints.upper[i]
             if not math.isfinite(value):
                 message = (f"{what} of {joint} is {value}; it must be a finite angle within "

@@ -81,8 +81,8 @@ class DirectLink:
         self._stamps.add(stamp)
         self._sequence += 1
         self.handed += 1
-        if self._input.submit(self._names, target.positions.tolist(),
-                              target.velocities.tolist(), (), self._sequence):
+        if self._input.submit(self._names, target.position_list(),
+                              target.velocity_list(), (), self._sequence):
             self.accepted += 1
 
     def is_own(self, msg: JointState) -> bool:

@@ -82,6 +82,9 @@ class JointStateRule:
     def validate(self, names: Sequence[Any], positions: Sequence[Any],
                  velocities: Sequence[Any] = (), efforts: Sequence[Any] = ()) -> np.ndarray:
         """Positions [rad] in joint-name order; `JointStateError` for anything wrong."""
+        q = self._plain(names, positions, velocities, efforts)
+        if q is not None:
+            return q
         names = list(names)
         if not all(isinstance(name, str) for name in names):
             raise self._error(Flaw.NAMES_NOT_STRINGS, (), "names must be strings")
@@ -107,6 +110,23 @@ class JointStateRule:
                     f"velocities must be finite numbers [rad/s] (no NaN or inf), got "
                     f"{value!r:.40} for {name}"))
         self._check_limits(q)
+        return q
+
+    def _plain(self, names: Sequence[Any], positions: Sequence[Any], velocities: Sequence[Any],
+               efforts: Sequence[Any]) -> np.ndarray | None:
+        """The common case in one pass: every joint in order, floats only, all finite, within
+        the limits; its positions [rad], or None for the full check (which finds the flaw)."""
+        n = len(self.joint_names)
+        if (len(positions) != n or len(velocities) not in (0, n) or len(efforts) not in (0, n)
+                or tuple(names) != self.joint_names
+                or not all(type(v) is float for v in positions)
+                or not all(type(v) is float for v in velocities)
+                or not math.isfinite(sum(positions, 0.0) + sum(velocities, 0.0))):
+            return None
+        q = np.array(positions, dtype=float)
+        if self._lower is not None and self._upper is not None and not (
+                (q >= self._lower).all() and (q <= self._upper).all()):
+            return None
         return q
 
     def _check_lengths(self, names: list[str], positions: Sequence[Any],

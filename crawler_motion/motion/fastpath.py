@@ -8,8 +8,8 @@ and is what the planner's tick runs:
 
 - `Track` holds rows of `Piecewise` trajectories (a gait slot's feet, or a joint-space move)
   as tuples of coefficients and the active segment of each (found again with `bisect` only
-  when the time leaves it), and evaluates position and velocity with the Horner recurrence of
-  `trajectory.evaluate_polynomial`;
+
+
 - `FastKinematics` is the closed-form IK and the analytic Jacobian inverse of
   `crawler_motion.model.kinematics`, operation for operation, for all legs; with calibrated
   legs the Newton refinement of `fastchain.ScalarLeg` (the float form of
@@ -45,22 +45,18 @@ from crawler_motion.model import kinematics
 from crawler_motion.model.config import RobotConfig
 from crawler_motion.model.leg_geometry import joint_frames
 from crawler_motion.motion.fastchain import ScalarLeg
+from crawler_motion.motion.fastsolve import calibrated_solve, nominal_solve, wrap
 from crawler_motion.motion.trajectory import Piecewise
 
 __all__ = ["DEGREE", "FastKinematics", "Track", "joint_targets"]
 
 _PI = math.pi
-_TWO_PI = 2.0 * math.pi
 #: Highest polynomial degree a `Track` evaluates (sextic; lower degrees are zero-padded).
 DEGREE = 6
 
-#: One segment of one row set: start [s], duration [s], end [s], coefficient rows (7 each).
+#: One segment of one row set: start [s], duration [s], end [s], rows of the 7 coefficients
+#: of the position and the 6 of the velocity.
 _Segment = tuple[float, float, float, tuple[tuple[float, ...], ...]]
-
-
-def _wrap(angle: float) -> float:
-    """Wrap to (-pi, pi] exactly like `kinematics._wrap`."""
-    return _PI - (_PI - angle) % _TWO_PI
 
 
 def _segments(pw: Piecewise, dims: int) -> tuple[list[float], tuple[_Segment, ...]]:
@@ -73,9 +69,13 @@ def _segments(pw: Piecewise, dims: int) -> tuple[list[float], tuple[_Segment, ..
     for k, seg in enumerate(pw.segments):
         coeffs[k, :, :seg.coeffs.shape[1]] = seg.coeffs
     breaks = [float(b) for b in pw.breaks]
+    durations = [float(x) for x in pw.durations]
+    # each row: the 7 coefficients of p(u), then the 6 of p'(u) / duration (planned once)
     return breaks, tuple(
-        (breaks[k], float(pw.durations[k]), breaks[k + 1],
-         tuple(tuple(float(x) for x in row) for row in coeffs[k]))
+        (breaks[k], durations[k], breaks[k + 1],
+         tuple((*(float(x) for x in row),
+                *(float(n * row[n] / durations[k]) for n in range(1, DEGREE + 1)))
+               for row in coeffs[k]))
         for k in range(len(pw.segments)))
 
 
@@ -114,9 +114,8 @@ class Track:
         t = float(t)
         pos: list[float] = []
         vel: list[float] = []
-        active = self._active
-        for piece in range(self.n_pieces):
-            seg = active[piece]
+        put_p, put_v = pos.append, vel.append
+        for piece, seg in enumerate(self._active):
             # The active segment serves [start, end); the last one also holds past its end.
             if not (seg[0] <= t < seg[2]):
                 seg = self._segment(piece, t)
@@ -127,22 +126,10 @@ class Track:
             elif tau > duration:
                 tau = duration
             u = tau / duration
-            for c0, c1, c2, c3, c4, c5, c6 in rows:
-                # Horner for p and p' in u, in the order of `evaluate_polynomial`.
-                v = c6
-                p = c6 * u + c5
-                v = v * u + p
-                p = p * u + c4
-                v = v * u + p
-                p = p * u + c3
-                v = v * u + p
-                p = p * u + c2
-                v = v * u + p
-                p = p * u + c1
-                v = v * u + p
-                p = p * u + c0
-                pos.append(p)
-                vel.append(v / duration)
+            for c0, c1, c2, c3, c4, c5, c6, d1, d2, d3, d4, d5, d6 in rows:
+                # Horner in u for p and for p' (its coefficients scaled by 1 / duration)
+                put_p((((((c6 * u + c5) * u + c4) * u + c3) * u + c2) * u + c1) * u + c0)
+                put_v(((((d6 * u + d5) * u + d4) * u + d3) * u + d2) * u + d1)
         return pos, vel
 
 
@@ -220,9 +207,9 @@ class FastKinematics:
                 ck = (d2 - l2sq - l3sq) / den
                 ck = -1.0 if ck < -1.0 else (1.0 if ck > 1.0 else ck)
                 knee = sign * math.acos(ck)
-                shoulder = _wrap(math.atan2(w, u) + math.atan2(l3 * math.sin(knee),
+                shoulder = wrap(math.atan2(w, u) + math.atan2(l3 * math.sin(knee),
                                                                l2 + l3 * math.cos(knee)))
-                root = _wrap(math.atan2(qy, qx) - yaw0)
+                root = wrap(math.atan2(qy, qx) - yaw0)
                 angles = (root, shoulder, knee)
                 if chains is not None:
                     angles = chains[i].cold(fx, fy, fz, angles, sign)
@@ -247,7 +234,7 @@ class FastKinematics:
         out = []
         for k, angle in enumerate(angles):
             if not -_PI < angle <= _PI:
-                angle = _wrap(angle)
+                angle = wrap(angle)
             lo, hi = lower[k], upper[k]
             if angle < lo:
                 if angle >= lo - kinematics.LIMIT_EPS:
@@ -299,8 +286,12 @@ class FastKinematics:
               ) -> tuple[list[float], list[float]]:
         """`inverse` (limits checked) then `velocities`: joint angles [rad] and rates [rad/s]
         (flat) for foot positions [m] and velocities [m/s] (flat)."""
-        q = self.inverse(feet)
         chains = self._chains
+        fast = (nominal_solve(self, feet, foot_velocity) if chains is None
+                else calibrated_solve(self, chains, feet, foot_velocity))
+        if fast is not None:
+            return fast
+        q = self.inverse(feet)
         if chains is not None and len(foot_velocity) == 3 * self.n_legs:
             kept = self._kept
             v = foot_velocity

@@ -201,14 +201,16 @@ class FootholdAdapter:
         """What each leg's offset does now."""
         return tuple(leg.mode for leg in self._legs)
 
-    def begin_swing(self, i: int, plan: Piecewise, t0: float, swing_time: float) -> None:
+    def begin_swing(self, i: int, plan: Piecewise, t0: float, swing_time: float,
+                    known: tuple[float, float] | None = None) -> None:
         """Leg ``i`` swings from ``t0`` [s] for ``swing_time`` [s] along ``plan`` (its foot
         trajectory in slot time): the held offset blends to 0 until it lowers. (A stop or
         search still running at lift-off, which the timing of a walk does not produce, blends
-        from where it would end.)"""
+        from where it would end.) ``known``: the plan's lowering start [s] and foot z at
+        touch-down [m] when computed already."""
         leg = self._legs[i]
-        t_lower = lowering_start(plan, swing_time)
-        z_ground = float(plan.evaluate(swing_time)[0][0, 2])
+        t_lower, z_ground = known if known is not None else (
+            lowering_start(plan, swing_time), float(plan.evaluate(swing_time)[0][0, 2]))
         leg.swing = _Swing(t0, t0 + t_lower, t0 + swing_time, z_ground, plan)
         value = self.held()[i]
         leg.mode, leg.value, leg.t_start, leg.duration = Mode.BLEND, value, t0, t_lower
@@ -227,11 +229,14 @@ class FootholdAdapter:
         running); forgets the swings that have ended by ``now`` [s] (the update's bookkeeping
         when there are no contacts)."""
         quiet = True
+        held = Mode.HELD
         for leg in self._legs:
-            if leg.swing is not None and now >= leg.swing.t_end - TIME_EPS:
+            swing = leg.swing
+            if swing is not None and now >= swing.t_end - TIME_EPS:
                 leg.swing = None
             leg.pressed = 0
-            quiet = quiet and leg.mode is Mode.HELD and leg.value == 0.0
+            if leg.mode is not held or leg.value != 0.0:
+                quiet = False
         return quiet
 
     def update(self, now: float, z_plan: Sequence[float],

@@ -3,7 +3,6 @@ journal."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import NoReturn
 
 import numpy as np
@@ -16,12 +15,49 @@ from crawler_motion.planner.state import IDLE, PlannerState
 MAX_EVENTS = 100
 
 
-@dataclass(frozen=True, slots=True)
 class JointTarget:
-    """Joint positions [rad] and velocities [rad/s], ``(12,)`` each, in joint-name order."""
+    """Joint positions [rad] and velocities [rad/s], ``(12,)`` each, in joint-name order.
 
-    positions: np.ndarray
-    velocities: np.ndarray
+    Built from arrays or from plain lists of floats (the walk's tick: its fast path computes
+    lists); `positions` / `velocities` are arrays (made from the lists on first use, then
+    kept), `position_list` / `velocity_list` the values as lists (what a message takes), so a
+    tick that is only published never builds an array. Read-only by convention: no setters.
+    """
+
+    __slots__ = ("_p", "_pa", "_v", "_va")
+
+    def __init__(self, positions: np.ndarray | list[float],
+                 velocities: np.ndarray | list[float]) -> None:
+        self._p, self._v = positions, velocities
+        self._pa = positions if isinstance(positions, np.ndarray) else None
+        self._va = velocities if isinstance(velocities, np.ndarray) else None
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Joint positions [rad] as an array."""
+        if self._pa is None:
+            self._pa = np.array(self._p, dtype=float)
+        return self._pa
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Joint velocities [rad/s] as an array."""
+        if self._va is None:
+            self._va = np.array(self._v, dtype=float)
+        return self._va
+
+    def position_list(self) -> list[float]:
+        """Joint positions [rad] as a list of floats."""
+        p = self._p
+        return p.tolist() if isinstance(p, np.ndarray) else list(p)
+
+    def velocity_list(self) -> list[float]:
+        """Joint velocities [rad/s] as a list of floats."""
+        v = self._v
+        return v.tolist() if isinstance(v, np.ndarray) else list(v)
+
+    def __repr__(self) -> str:
+        return f"JointTarget(positions={self.positions!r}, velocities={self.velocities!r})"
 
 
 class Journal:

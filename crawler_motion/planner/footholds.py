@@ -6,6 +6,7 @@ following the footholds or an IMU (`motion.attitude`); pure: no rclpy."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -21,7 +22,7 @@ from crawler_motion.motion.attitude import (
     stance_plane,
 )
 from crawler_motion.motion.contact_estimation import FootContact
-from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
+from crawler_motion.motion.fastpath import FastKinematics, Track
 from crawler_motion.motion.foothold import FootholdAdapter, FootholdSettings, lowering_start
 from crawler_motion.motion.gait import Slot, check_trajectories
 from crawler_motion.motion.stumble import (
@@ -107,32 +108,32 @@ class Footholds:
         self._base, self._previous = 0.0, None
         self._tilt = [0.0, 0.0, 0]
 
-    def begin_slot(self, slot: Slot) -> None:
+    def begin_slot(self, slot: Slot, facts: SlotFacts | None = None) -> None:
         """``slot`` starts (it follows the last one on the walk's clock): its swinging legs
-        lift from their footholds, the body heads for its new pose."""
+        lift from their footholds, the body heads for its new pose. ``facts``: its
+        `slot_facts`, computed ahead (else now)."""
+        if facts is None or facts.slot is not slot:
+            facts = slot_facts(slot)
         if self._previous is not None:
             self._base += self._previous
         self._previous = slot.duration
         self._slot, self._legs, self.replanned = slot, list(slot.legs), None
         self.hits.clear()
         held = self.adapter.held()  # the footholds, before the swinging legs leave theirs
-        self._swing_dir = [None] * self.robot.n_legs
-        if slot.swing_time > 0.0:
-            for i in slot.group:
-                self._swing_dir[i] = swing_direction(slot.legs[i], slot.swing_time)
-                self.adapter.begin_swing(i, slot.legs[i], self._base, slot.swing_time)
-                self.hits.begin(i, lowering_start(slot.legs[i], slot.swing_time),
-                                float(slot.legs[i].evaluate(0.0)[0][0, 2]))
-        self._plan_pose(slot, held)
+        self._swing_dir = list(facts.directions)
+        for i, t_lower, lift_z, ground_z in facts.swings:
+            self.adapter.begin_swing(i, slot.legs[i], self._base, slot.swing_time,
+                                     (t_lower, ground_z))
+            self.hits.begin(i, t_lower, lift_z)
+        self._plan_pose(slot, held, facts.start_xy)
 
-    def _plan_pose(self, slot: Slot, held: np.ndarray) -> None:
-        """The body pose at the end of ``slot`` from the footholds' offsets ``held`` [m] (see
-        `motion.attitude`)."""
+    def _plan_pose(self, slot: Slot, held: np.ndarray, xy: np.ndarray) -> None:
+        """The body pose at the end of ``slot`` from the footholds' offsets ``held`` [m] and
+        the feet at its start ``xy`` (n_legs, 2) [m] (see `motion.attitude`)."""
         mode = self.attitude.mode
         if mode is AttitudeMode.OFF or not self.settings.enabled:
             self.pose.plan(self._base, slot.duration, _NEUTRAL)
             return
-        xy = np.array([leg.evaluate(0.0)[0][0, :2] for leg in slot.legs])
         plane = stance_plane(xy, held)
         target = list(plane if plane is not None else self.pose.target)
         tilt, self._tilt = self._tilt, [0.0, 0.0, 0]
@@ -160,9 +161,9 @@ class Footholds:
         if self.replanned is not None:  # a stumble's retry replaced the slot's track
             track = self.replanned
         states, forces, totals, stamp = self._estimate()
-        if states is None and self.adapter.quiet(clock) and self.pose.quiet():
-            return joint_targets(track, kin, t)  # the blind plan, at its cost
         pos, vel = track.evaluate(t)
+        if states is None and self.adapter.quiet(clock) and self.pose.quiet():
+            return kin.solve(pos, vel)  # the blind plan, at its cost
         if states is not None and totals is not None and self.stumble.enabled:
             retried = self._stumbles(track, t, states, totals, pos, stamp)
             if retried is not track:
@@ -249,6 +250,35 @@ class Footholds:
         apply_pose(pos, [0.0] * len(pos), self.pose.target, _NEUTRAL)
         self._end = inverse_kinematics(self.robot, np.reshape(pos, (-1, 3)))
         return self._end.copy()
+
+
+@dataclass(frozen=True)
+class SlotFacts:
+    """What `Footholds.begin_slot` needs of a slot's trajectories, computed once per slot
+    (`slot_facts`; the walk does it while planning the slot ahead, off the tick)."""
+
+    slot: Slot
+    #: per leg, its swing's horizontal direction (`swing_direction`; None: not swinging)
+    directions: tuple[np.ndarray | None, ...]
+    #: per swinging leg: (leg, lowering start [s], foot z at lift-off [m], at touch-down [m])
+    swings: tuple[tuple[int, float, float, float], ...]
+    start_xy: np.ndarray  # (n_legs, 2) the feet at the slot's start [m]
+
+
+def slot_facts(slot: Slot) -> SlotFacts:
+    """The `SlotFacts` of ``slot``."""
+    n_legs = len(slot.legs)
+    directions: list[np.ndarray | None] = [None] * n_legs
+    swings = []
+    if slot.swing_time > 0.0:
+        for i in slot.group:
+            leg = slot.legs[i]
+            directions[i] = swing_direction(leg, slot.swing_time)
+            swings.append((i, lowering_start(leg, slot.swing_time),
+                           float(leg.evaluate(0.0)[0][0, 2]),
+                           float(leg.evaluate(slot.swing_time)[0][0, 2])))
+    xy = np.array([leg.evaluate(0.0)[0][0, :2] for leg in slot.legs])
+    return SlotFacts(slot, tuple(directions), tuple(swings), xy)
 
 
 def swing_direction(leg: Piecewise, swing_time: float) -> np.ndarray | None:

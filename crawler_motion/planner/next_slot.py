@@ -8,6 +8,7 @@ from crawler_motion.errors import GaitError, KinematicsError, TrajectoryError
 from crawler_motion.model.config import RobotConfig
 from crawler_motion.motion.fastpath import Track
 from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams, check_trajectories
+from crawler_motion.planner.footholds import SlotFacts, slot_facts
 
 #: `PlannerCore.plan_ahead(now)` plans the next slot at most this long before its boundary [s].
 PLAN_AHEAD_HORIZON = 0.2
@@ -40,6 +41,7 @@ class AheadPlan:
     seq: GaitSequencer | None
     error: str | None
     track: Track | None
+    facts: SlotFacts | None = None  # what the footholds need of the slot (`slot_facts`)
 
     def matches(self, after: Slot | None, pending: WalkParams | None, stopping: bool) -> bool:
         """True if planned after slot ``after`` with these parameters and stop flag."""
@@ -58,7 +60,11 @@ class AheadJob:
     stopping: bool
 
     def run(self) -> AheadPlan:
-        """Plan, check and prepare the evaluator of the next slot (~2-4 ms)."""
+        """Plan, check and prepare the evaluator and the footholds' facts of the next slot
+        (~2-10 ms)."""
         slot, seq, error = plan_next(self.robot, self.seq, self.pending, self.stopping)
-        track = Track(slot.legs) if slot is not None and error is None else None
-        return AheadPlan(self.after, self.pending, self.stopping, slot, seq, error, track)
+        ready = slot is not None and error is None
+        track = Track(slot.legs) if ready else None
+        facts = slot_facts(slot) if ready else None
+        return AheadPlan(self.after, self.pending, self.stopping, slot, seq, error, track,
+                         facts)

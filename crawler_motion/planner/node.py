@@ -309,8 +309,8 @@ class PlannerNode(Node):
                 msg.header.stamp = self.get_clock().now().to_msg()
                 if self.on_target is not None:  # the composed controller's driver, at once
                     self.on_target(target, msg.header.stamp)
-                msg.position = target.positions.tolist()
-                msg.velocity = target.velocities.tolist()
+                msg.position = target.position_list()
+                msg.velocity = target.velocity_list()
                 self._pub_joints.publish(msg)
             self._after_core_call()
             missed = self._ticker.missed

@@ -12,7 +12,7 @@ from crawler_motion.model.config import Config
 from crawler_motion.motion.fastpath import FastKinematics, Track
 from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams, check_trajectories
 from crawler_motion.planner.context import JointTarget, PlannerContext
-from crawler_motion.planner.footholds import Footholds
+from crawler_motion.planner.footholds import Footholds, SlotFacts
 from crawler_motion.planner.next_slot import PLAN_AHEAD_HORIZON, AheadJob, AheadPlan, plan_next
 from crawler_motion.planner.state import HOLDING, STANDING, STOPPING, WALK_STATES, WALKING
 
@@ -97,15 +97,15 @@ class WalkController:
                     f"{params.turn:g} rad/step, "
                     f"{steps if steps is not None else 'until stopped'} steps")
 
-    def _commit(self, slot: Slot, seq: GaitSequencer, t0: float, track: Track | None = None
-                ) -> None:
+    def _commit(self, slot: Slot, seq: GaitSequencer, t0: float, track: Track | None = None,
+                facts: SlotFacts | None = None) -> None:
         self.seq = seq
         self.slot = slot
         self.slot_t0 = t0
         self.track = track if track is not None else Track(slot.legs)
         self.ahead = None
         self.params = slot.params
-        self.foothold.begin_slot(slot)
+        self.foothold.begin_slot(slot, facts)
         if slot.kind == "steady":
             self.steady_planned += 1
         self.ctx.journal.touch(t0)
@@ -137,13 +137,14 @@ class WalkController:
         stopping, pending = self.next_inputs()
         self.pending = None
         ahead, self.ahead = self.ahead, None
-        track = None
+        track = facts = None
         if ahead is not None and ahead.matches(self.slot, pending, stopping):
             slot, seq, error, track = ahead.slot, ahead.seq, ahead.error, ahead.track
+            facts = ahead.facts
         else:
             slot, seq, error = self._try_slot(pending, stopping)
         if error is not None:
-            track = None
+            track = facts = None
             self.ctx.journal.event("error", f"slot check failed: {error}; stopping into "
                                             f"standing")
             slot, seq, error = self._try_slot(None, True)
@@ -157,7 +158,7 @@ class WalkController:
             return False
         if stopping and self.ctx.state == WALKING:
             self.ctx.state = STOPPING
-        self._commit(slot, seq, t0, track)
+        self._commit(slot, seq, t0, track, facts)
         return True
 
     def next_inputs(self) -> tuple[bool, WalkParams | None]:
@@ -228,15 +229,16 @@ class WalkController:
                                    f"twist): stopping into standing")
         if self.waiting:  # the planner core resumes it from the measured pose (`thaw`)
             return ctx.hold
-        if not self._boundaries(now):
-            return ctx.hold
+        slot = self.slot
+        if (slot is None or now >= self.slot_t0 + slot.duration) and not self._boundaries(now):
+            return ctx.hold  # (within the slot: no boundary to cross, no call)
         assert self.track is not None
         try:  # plain-float IK + Jacobian: same numbers and errors as the numpy functions
             q, qd = self.foothold.targets(self.track, self._kin, now, self.slot_t0)
         except KinematicsError as exc:
             self.enter_holding(now, f"tick at {now:.3f} s failed: {exc}")
             return ctx.hold
-        target = JointTarget(np.array(q), np.array(qd))
+        target = JointTarget(q, qd)  # lists: arrays only if asked for
         ctx.last_target = target
         if self.foothold.failure:  # no ground under a foot, or a second hit: hold
             self.enter_holding(now, self.foothold.failure, self.foothold.failure_pose)

@@ -28,6 +28,9 @@ tears the stack down. The two pipelines alternate rate by rate, so both see the 
 - The machine's floor (`wake_floor`), before each rate unless ``--no-floor``: a bare ticker
   process at that rate for the same window, nothing of the stack running; a target below it
   cannot be met on this machine at normal priority.
+- Against the floor (`e2e_targets`): each run beside its rate's floor (deadlines skipped,
+  p99 period error, their ratio and difference), its latency and CPU per command, and the
+  verdict of its target (relative to the floor for the timing).
 
 Run: crawler-motion bench --e2e [--seconds 15] [--rates 100,200,500,1000]
 [--pipelines two-node,controller] [--no-floor]
@@ -47,7 +50,6 @@ import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from enum import Enum
 
 import numpy as np
 
@@ -68,34 +70,12 @@ from crawler_motion.tools.e2e_analysis import (
 )
 from crawler_motion.tools.e2e_records import GROUP_T, REC_STAMP
 from crawler_motion.tools.e2e_stack import Finish, Stack
+from crawler_motion.tools.e2e_targets import Pipeline, chain_cpu, print_against_floor
 from crawler_motion.tools.procstat import cpu_percent
 
 #: Command rates of the bench [Hz].
 RATES = (100.0, 200.0, 500.0, 1000.0)
-#: The targets are judged at this rate [Hz].
-TARGET_RATE = 500.0
 
-
-class Pipeline(str, Enum):
-    """How the planner and the driver run: two processes, or composed in one."""
-
-    TWO_NODE = "two-node"
-    CONTROLLER = "controller"
-
-
-@dataclass(frozen=True)
-class Target:
-    """What a pipeline must reach at `TARGET_RATE` (a bound of None is not judged)."""
-
-    min_rate: float  # achieved [Hz]
-    p99_period_error_ms: float
-    p99_latency_ms: float | None = None
-    max_cpu_percent: float | None = None  # planner + driver, % of one core
-
-
-#: The targets: no tick missed and these bounds (the controller's is the real-time path).
-TARGETS = {Pipeline.TWO_NODE: Target(0.99 * TARGET_RATE, 1.0),
-           Pipeline.CONTROLLER: Target(TARGET_RATE - 1.0, 0.5, 0.5, 50.0)}
 
 @dataclass
 class RateResult:
@@ -194,14 +174,6 @@ def bench_rate(rate: float, seconds: float, *, settle: float = 1.0, gait: str = 
     return result
 
 
-def chain_cpu(result: RateResult) -> float:
-    """CPU of planner + driver (the two processes, or the one controller) [% of one core]."""
-    c = result.cpu
-    if result.pipeline is Pipeline.CONTROLLER:
-        return c.get("controller", math.nan)
-    return c.get("planner", math.nan) + c.get("driver", math.nan)
-
-
 def cpu_text(result: RateResult) -> str:
     """'planner + driver = sum' (two-node) or the controller's CPU, and per command [ms] (at
     the achieved rate)."""
@@ -267,47 +239,13 @@ def print_flow_table(results: Sequence[RateResult]) -> None:
               f"{fmt(r.listener_delay[1], 3)} |")
 
 
-def shortfalls(result: RateResult, target: Target) -> list[str]:
-    """What ``result`` misses of ``target`` (empty when it is met)."""
-    t = result.timing
-    if t is None:
-        return [f"failed: {result.error}"]
-    out = [f"{t.missed} gaps > 1.5 T"] if t.missed else []
-    out += [f"{result.skipped} deadlines skipped by the ticker"] if result.skipped else []
-    out += [f"achieved {t.rate:.1f} Hz"] if not t.rate >= target.min_rate else []
-    out += [f"p99 period error {t.err_p99_ms:.3f} ms"] if not (
-        t.err_p99_ms < target.p99_period_error_ms) else []
-    if target.p99_latency_ms is not None and not result.lat_p99_ms < target.p99_latency_ms:
-        out.append(f"p99 latency {result.lat_p99_ms:.2f} ms")
-    if target.max_cpu_percent is not None and not chain_cpu(result) <= target.max_cpu_percent:
-        out.append(f"CPU {chain_cpu(result):.0f} %")
-    return out + ([result.error] if result.error else [])
-
-
-def print_verdict(results: Sequence[RateResult], floors: Mapping[float, wake_floor.Floor]) -> bool:
-    """The verdict on each pipeline's target, what the machine's floor allows, and the
-    definitions; True when all targets are met."""
-    met_all = True
-    for pipeline, target in TARGETS.items():
-        result = next((r for r in results if r.rate == TARGET_RATE and r.pipeline is pipeline),
-                      None)
-        if result is None:
-            continue
-        bounds = [f">= {target.min_rate:g} Hz achieved", "no tick missed",
-                  f"p99 period error < {target.p99_period_error_ms:g} ms"]
-        if target.p99_latency_ms is not None:
-            bounds.append(f"JointState->CAN p99 < {target.p99_latency_ms:g} ms")
-        if target.max_cpu_percent is not None:
-            bounds.append(f"planner + driver CPU <= {target.max_cpu_percent:g} % of a core")
-        why = shortfalls(result, target)
-        met_all = met_all and not why
-        print(f"\nTarget, {pipeline.value} at {TARGET_RATE:g} Hz ({', '.join(bounds)}) -> "
-              + ("**met**" if not why else f"**NOT met** ({', '.join(why)})")
-              + (f"; {result.lost} of its commands in the window never reached the bus"
-                 if result.lost else ""))
-    if TARGET_RATE in floors:
-        strictest = min(t.p99_period_error_ms for t in TARGETS.values())
-        print("\n" + wake_floor.verdict(floors[TARGET_RATE], strictest))
+def print_table(results: Sequence[RateResult], seconds: float,
+                floors: Mapping[float, wake_floor.Floor] | None = None) -> bool:
+    """Print the Markdown tables and the verdict; True when the target is met."""
+    floors = {} if floors is None else floors
+    print_timing_table(results, seconds, floors)
+    print_flow_table(results)
+    met = print_against_floor(results, floors, seconds)
     print("\nPeriod error = |difference of consecutive JointState header stamps - 1/rate|. "
           "Latency = kernel receive time of the first target frame of a tick on the listener's "
           "udp_multicast socket - the JointState header stamp (same system clock). "
@@ -315,16 +253,7 @@ def print_verdict(results: Sequence[RateResult], floors: Mapping[float, wake_flo
           "this process (its joint_commands subscriber). The listener's user-space delay "
           "(time.time() when its thread got the frame - the kernel time) is what a "
           "user-space receive time would have added to the latency.")
-    return met_all
-
-
-def print_table(results: Sequence[RateResult], seconds: float,
-                floors: Mapping[float, wake_floor.Floor] | None = None) -> bool:
-    """Print the Markdown tables and the verdict; True when the target is met."""
-    floors = {} if floors is None else floors
-    print_timing_table(results, seconds, floors)
-    print_flow_table(results)
-    return print_verdict(results, floors)
+    return met
 
 
 def parse_rates(text: str) -> tuple[float, ...]:

@@ -11,12 +11,10 @@ import pytest
 
 from crawler_motion.tools import cli, soak
 from crawler_motion.tools.bench_e2e import (
-    TARGETS,
     Pipeline,
     RateResult,
     parse_pipelines,
     parse_rates,
-    shortfalls,
 )
 from crawler_motion.tools.e2e_analysis import (
     counters_text,
@@ -27,7 +25,9 @@ from crawler_motion.tools.e2e_analysis import (
 )
 from crawler_motion.tools.e2e_records import GROUP_Q, GROUP_T, REC_Q, REC_STAMP, Rows
 from crawler_motion.tools.e2e_stack import Snapshot, parse_sim_counters
+from crawler_motion.tools.e2e_targets import TARGETS, print_against_floor, shortfalls
 from crawler_motion.tools.procstat import cpu_percent
+from crawler_motion.tools.wake_floor import Floor
 
 
 @pytest.mark.parametrize("name", ["bench", "soak", "smoothness", "tune-smooth", "demo",
@@ -171,15 +171,33 @@ def test_parse_pipelines_refuses(text):
 
 def test_shortfalls_name_each_missed_bound_of_the_controller_target():
     stamps = np.arange(0.0, 2.0, 0.002)  # 500 Hz, exact
+    floor = Floor(500.0, period_stats(stamps, 500.0), 3, 1.0)
     result = RateResult(500.0, Pipeline.CONTROLLER, timing=period_stats(stamps, 500.0),
-                        lat_p99_ms=0.3, cpu={"controller": 40.0})
-    target = TARGETS[Pipeline.CONTROLLER]
-    assert shortfalls(result, target) == []
-    result.lat_p99_ms, result.cpu, result.skipped = 0.6, {"controller": 55.0}, 2
-    assert shortfalls(result, target) == ["2 deadlines skipped by the ticker",
-                                          "p99 latency 0.60 ms", "CPU 55 %"]
+                        lat_p99_ms=0.3, cpu={"controller": 15.0}, skipped=5)
+    target = TARGETS[(Pipeline.CONTROLLER, 500.0)]
+    assert shortfalls(result, target, floor, 10.0) == []  # 5 skipped: floor 3 + 2 allowed
+    result.lat_p99_ms, result.cpu, result.skipped = 0.6, {"controller": 55.0}, 6
+    assert shortfalls(result, target, floor, 10.0) == [
+        "6 deadlines skipped (floor 3, allowed 5)", "p99 latency 0.60 ms",
+        "CPU 1.10 ms per command"]
     jittery = np.sort(stamps + np.random.default_rng(1).uniform(0, 0.0015, stamps.size))
     result = RateResult(500.0, Pipeline.TWO_NODE, timing=period_stats(jittery, 500.0),
-                        cpu={"planner": 20.0, "driver": 30.0})
-    assert any("p99 period error" in s for s in shortfalls(result, TARGETS[Pipeline.TWO_NODE]))
-    assert shortfalls(RateResult(500.0, error="boom"), target) == ["failed: boom"]
+                        lat_p99_ms=1.0, cpu={"planner": 10.0, "driver": 10.0})
+    two = TARGETS[(Pipeline.TWO_NODE, 500.0)]
+    assert [s.split(" (")[0] for s in shortfalls(result, two, floor, 10.0)] == [
+        f"p99 period error {result.timing.err_p99_ms:.3f} ms"]
+    assert shortfalls(result, two, None, 10.0) == []  # no floor: its bounds not judged
+    assert shortfalls(RateResult(500.0, error="boom"), target, floor, 10.0) == ["failed: boom"]
+
+
+def test_the_against_floor_table_gives_ratios_and_verdicts(capsys):
+    stamps = np.arange(0.0, 2.0, 0.002)
+    floor = Floor(500.0, period_stats(stamps + np.tile([0.0, 1e-4], 500), 500.0), 1, 1.0)
+    good = RateResult(500.0, Pipeline.CONTROLLER, timing=period_stats(stamps, 500.0),
+                      lat_p99_ms=0.2, cpu={"controller": 10.0})
+    slow = RateResult(1000.0, Pipeline.CONTROLLER, timing=period_stats(stamps, 500.0),
+                      cpu={"controller": 60.0})
+    assert not print_against_floor([good, slow], {500.0: floor}, 10.0)
+    rows = [x for x in capsys.readouterr().out.splitlines() if x.startswith("| controller")]
+    assert "| 0 / 1 / -1 |" in rows[0] and "0.0x" in rows[0] and rows[0].endswith("**met** |")
+    assert "**NOT met**: achieved 500.0 Hz; CPU 60 %" in rows[1]
