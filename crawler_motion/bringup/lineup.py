@@ -23,6 +23,9 @@ from crawler_motion.testing.stack import STACK_COMMAND_TIMEOUT, node_command, ro
 
 #: Medium choices of the simulator.
 MEDIA = ("water", "land")
+#: Time the simulator gets after its node is up before the driver opens the bus [s]: its
+#: physics and heartbeats start after the node appears (a driver started at once saw gaps).
+SIM_SETTLE = 2.0
 #: Default Foxglove WebSocket port of ``--view``.
 VIEW_PORT = 8765
 
@@ -37,6 +40,7 @@ class Member:
     nodes: tuple[str, ...]
     command: tuple[str, ...]
     stage: int = 1
+    settle: float = 0.0  # [s] waited after it is ready before the next stage starts
 
 
 @dataclass(frozen=True)
@@ -108,7 +112,8 @@ def lineup(options: BringUpOptions) -> list[Member]:
         sim = {**bus, "world": options.world, "medium": options.medium,
                **extra.get("seabed_sim", {})}
         out.append(Member("seabed_sim", ("seabed_sim",),
-                          (*node_command("seabed_sim"), *_args(sim, options)), stage=0))
+                          (*node_command("seabed_sim"), *_args(sim, options)), stage=0,
+                          settle=SIM_SETTLE))
     driver = {**bus, "autostart": True, **extra.get("driver", {})}
     if options.simulate:  # a shared desktop starves processes now and then (see the demo)
         driver.setdefault("command_timeout", STACK_COMMAND_TIMEOUT)

@@ -81,6 +81,7 @@ class Supervisor:
                     self._check_alive(member, began, timeout)
                 if waiting:
                     time.sleep(POLL)
+            time.sleep(max((m.settle for m in members if m.stage == stage), default=0.0))
 
     def _launch(self, member: Member) -> None:
         with open(self.log_path(member.name), "wb") as log:
