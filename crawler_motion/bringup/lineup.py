@@ -26,6 +26,10 @@ MEDIA = ("water", "land")
 #: Time the simulator gets after its node is up before the driver opens the bus [s]: its
 #: physics and heartbeats start after the node appears (a driver started at once saw gaps).
 SIM_SETTLE = 2.0
+#: Niceness of the members that do not close the motion loop (mapper, navigator, recorder,
+#: view): on a busy computer the simulator and the controller get the CPU first, so a burst
+#: of mapping or a start-up never delays a heartbeat or a tick.
+BACKGROUND_NICE = 5
 #: Default Foxglove WebSocket port of ``--view``.
 VIEW_PORT = 8765
 
@@ -33,14 +37,16 @@ VIEW_PORT = 8765
 @dataclass(frozen=True)
 class Member:
     """One process: its short ``name``, the ROS node names it must show on the graph before it
-    counts as ready (relative to the namespace), its command line and its start ``stage``
-    (the members of a stage start together once every member of the stages before is ready)."""
+    counts as ready (relative to the namespace), its command line, its start ``stage`` (the
+    members of a stage start together once every member of the stages before is ready) and
+    its niceness (0: the motion loop; `BACKGROUND_NICE`: the rest)."""
 
     name: str
     nodes: tuple[str, ...]
     command: tuple[str, ...]
     stage: int = 1
     settle: float = 0.0  # [s] waited after it is ready before the next stage starts
+    nice: int = 0
 
 
 @dataclass(frozen=True)
@@ -126,32 +132,24 @@ def lineup(options: BringUpOptions) -> list[Member]:
     else:
         out.append(Member("controller_node", ("planner", "driver"), (
             *node_command("controller_node"), *_args({**driver, **planner}, options))))
-    for name, node in (("terrain_mapper", "terrain_mapper"), ("navigator", "navigator")):
-        out.append(Member(name, (node,), (*_script(name), *_args(extra.get(node, {}),
-                                                                   options))))
+    for name in ("terrain_mapper", "navigator"):
+        out.append(_background(name, (name,), (*node_command(name),
+                                               *_args(extra.get(name, {}), options))))
     if options.record is not None:
-        out.append(Member("recorder", ("recorder",), (
-            *_script("recorder"), "-o", str(options.record), "--quiet",
+        out.append(_background("recorder", ("recorder",), (
+            *node_command("recorder"), "-o", str(options.record), "--quiet",
             *_args({}, options))))
     if options.view:
-        out.append(Member("view", ("foxglove_view",), (
-            *_script("crawler-motion"), "view", "--port", str(options.view_port),
+        out.append(_background("view", ("foxglove_view",), (
+            *node_command("crawler-motion"), "view", "--port", str(options.view_port),
             *_args({}, options))))
     return out
 
 
-def _script(name: str) -> list[str]:
-    """A console script of this package next to this interpreter (``python -m`` fallback)."""
-    import sys
-
-    script = Path(sys.executable).parent / name
-    if script.exists():
-        return [str(script)]
-    module = {"terrain_mapper": "crawler_motion.mapping.node",
-              "navigator": "crawler_motion.navigation.node",
-              "recorder": "crawler_motion.recording.recorder",
-              "crawler-motion": "crawler_motion.tools.cli"}[name]
-    return [sys.executable, "-m", module]
+def _background(name: str, nodes: tuple[str, ...], command: tuple[str, ...]) -> Member:
+    """A member outside the motion loop: started once the controller is ready (its start-up
+    does not compete with the controller's), at `BACKGROUND_NICE`."""
+    return Member(name, nodes, command, stage=2, nice=BACKGROUND_NICE)
 
 
 def describe(members: Sequence[Member]) -> str:

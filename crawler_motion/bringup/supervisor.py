@@ -11,6 +11,8 @@ and SIGKILLs what is left after a timeout, so nothing stays behind.
 
 from __future__ import annotations
 
+import functools
+import os
 import signal
 import subprocess
 import time
@@ -87,7 +89,8 @@ class Supervisor:
         with open(self.log_path(member.name), "wb") as log:
             self.procs[member.name] = subprocess.Popen(
                 list(member.command), stdout=log, stderr=subprocess.STDOUT, env=self.env,
-                start_new_session=True, preexec_fn=_die_with_parent)
+                start_new_session=True, preexec_fn=functools.partial(_prepare_child,
+                                                                     member.nice))
 
     def _check_alive(self, member: Member, began: float, timeout: float) -> None:
         proc = self.procs[member.name]
@@ -139,11 +142,13 @@ class Supervisor:
         return killed
 
 
-def _die_with_parent() -> None:
-    """In the child before exec: SIGTERM when the bring-up dies, even by SIGKILL (Linux
-    ``PR_SET_PDEATHSIG``), so no process outlives it."""
+def _prepare_child(nice: int) -> None:
+    """In the child before exec: raise its niceness by ``nice``; SIGTERM when the bring-up
+    dies, even by SIGKILL (Linux ``PR_SET_PDEATHSIG``), so no process outlives it."""
     import ctypes
 
+    if nice:
+        os.nice(nice)
     try:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
     except (OSError, AttributeError):  # not Linux: the SIGINT/SIGKILL of `stop` remain
@@ -156,8 +161,6 @@ PR_SET_PDEATHSIG = 1
 
 def _signal(proc: subprocess.Popen[bytes], sig: int) -> None:
     """Send ``sig`` to the process group of ``proc`` (its children too), if still there."""
-    import os
-
     try:
         os.killpg(proc.pid, sig)
     except ProcessLookupError:

@@ -19,9 +19,8 @@ import numpy as np
 
 from crawler_motion.recording import series
 from crawler_motion.recording.reader import Recording
+from crawler_motion.runtime.diagnostic_names import BODY_CONTACTS_KEY
 
-#: Diagnostics key of the simulator's contact count (`sim.seabed.node.BODY_CONTACTS_KEY`).
-CONTACTS_KEY = "hull or leg contact ticks"
 HEADER = ("task", "kind", "time [s]", "distance [m]", "covered", "min clearance [m]",
           "contacts", "faults", "outcome")
 
@@ -44,7 +43,7 @@ def _contacts(rec: Recording) -> list[tuple[float, int]]:
     for log_time, msg in rec.topic("/diagnostics"):
         for status in msg.status:
             for kv in status.values:
-                if kv.key == CONTACTS_KEY:
+                if kv.key == BODY_CONTACTS_KEY:
                     out.append(((log_time - rec.start()) * 1e-9, int(kv.value)))
     return out
 
@@ -113,7 +112,7 @@ def draw_mission(rec: Recording, path: Path, tool_width: float) -> Path | None:
     for k in range(0, len(xyz), 256):
         d = centres[:, None, :] - xyz[None, k:k + 256, :2]
         covered |= (np.hypot(d[..., 0], d[..., 1]) <= tool_width / 2).any(axis=1)
-    fig, axes = report_plots._figure(size=(5.5, 5.0))
+    fig, axes = report_plots.figure(size=(5.5, 5.0))
     ax = axes[0][0]
     ax.imshow(np.ma.masked_less(cells, 0), origin="lower", extent=extent, cmap="Greys",
               vmin=0, vmax=100, alpha=0.8)
@@ -125,4 +124,4 @@ def draw_mission(rec: Recording, path: Path, tool_width: float) -> Path | None:
     ax.set(xlabel="x [m]", ylabel="y [m]",
            title="mission: map (obstacles dark), covered cells (green), path")
     ax.legend(loc="best", fontsize=8)
-    return report_plots._save(fig, path)
+    return report_plots.save(fig, path)

@@ -13,7 +13,8 @@ from crawler_motion.recording.reader import Recording
 DPI = 80
 
 
-def _figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (8.0, 4.0)) -> Any:
+def figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (8.0, 4.0)) -> Any:
+    """A headless matplotlib figure and its ``(rows, cols)`` axes; ``size`` in inches."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -22,7 +23,8 @@ def _figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (8.0, 4.0)
     return plt.subplots(rows, cols, figsize=size, squeeze=False)
 
 
-def _save(fig: Any, path: Path) -> Path:
+def save(fig: Any, path: Path) -> Path:
+    """Write ``fig`` as a small PNG at ``path``, close it and return ``path``."""
     import matplotlib.pyplot as plt
 
     fig.tight_layout()
@@ -36,7 +38,7 @@ def draw_joints(cmd: series.Joints, meas: series.Joints, legs: list[str], path: 
     """Commanded (dashed) against measured joint angles, one panel per leg [rad]."""
     if not len(cmd.t) and not len(meas.t):
         return None
-    fig, axes = _figure(len(legs), 1, (8.0, 1.8 * len(legs)))
+    fig, axes = figure(len(legs), 1, (8.0, 1.8 * len(legs)))
     for row, leg in enumerate(legs):
         ax = axes[row][0]
         for j, name in enumerate(meas.names):
@@ -47,7 +49,7 @@ def draw_joints(cmd: series.Joints, meas: series.Joints, legs: list[str], path: 
         ax.set_ylabel(f"{leg} [rad]")
         ax.legend(loc="upper right", fontsize=7, ncol=3)
     axes[-1][0].set_xlabel("time [s] (dashed: commanded)")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def draw_feet(t: np.ndarray, feet: np.ndarray, legs: list[str], path: Path) -> Path | None:
@@ -55,7 +57,7 @@ def draw_feet(t: np.ndarray, feet: np.ndarray, legs: list[str], path: Path) -> P
     colour per leg [m]."""
     if not len(t):
         return None
-    fig, axes = _figure(1, 2, (10.0, 4.2))
+    fig, axes = figure(1, 2, (10.0, 4.2))
     top, height = axes[0][0], axes[0][1]
     for leg, name in enumerate(legs):
         xy = feet[:, leg, :2]
@@ -70,21 +72,21 @@ def draw_feet(t: np.ndarray, feet: np.ndarray, legs: list[str], path: Path) -> P
     height.set_xlabel("time [s]")
     height.set_ylabel("foot z in base_link [m]")
     height.legend(loc="upper right", fontsize=8, ncol=len(legs))
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def draw_tracking(err: series.Joints, path: Path) -> Path | None:
     """Tracking error of every joint and the largest over time [rad]."""
     if not len(err.t):
         return None
-    fig, axes = _figure()
+    fig, axes = figure()
     ax = axes[0][0]
     ax.plot(err.t, err.q, lw=0.6, alpha=0.6)
     ax.plot(err.t, np.nanmax(np.abs(err.q), axis=1), "k", lw=1.2, label="largest |error|")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("measured - commanded [rad]")
     ax.legend(loc="upper right", fontsize=8)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def draw_path(rec: Recording, path: Path) -> Path | None:
@@ -92,7 +94,7 @@ def draw_path(rec: Recording, path: Path) -> Path | None:
     _, xyz = series.body_path(rec)
     if not len(xyz):
         return None
-    fig, axes = _figure(size=(5.5, 5.0))
+    fig, axes = figure(size=(5.5, 5.0))
     ax = axes[0][0]
     grid = series.terrain(rec)
     if grid is not None:
@@ -109,12 +111,12 @@ def draw_path(rec: Recording, path: Path) -> Path | None:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.legend(loc="best", fontsize=8)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def draw_states(rec: Recording, path: Path) -> Path | None:
     """Planner (and driver) states over time."""
-    fig, axes = _figure(size=(8.0, 2.6))
+    fig, axes = figure(size=(8.0, 2.6))
     ax = axes[0][0]
     names: list[str] = []
     drawn = False
@@ -133,7 +135,7 @@ def draw_states(rec: Recording, path: Path) -> Path | None:
         return None
     ax.set_yticks(range(len(names)), names, fontsize=7)
     ax.set_xlabel("time [s]")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def draw_faults(found: list[tuple[float, str, str, str]], path: Path) -> Path | None:
@@ -142,10 +144,10 @@ def draw_faults(found: list[tuple[float, str, str, str]], path: Path) -> Path | 
         return None
     names = list(dict.fromkeys(name for _, name, _, _ in found))
     colors = {"WARN": "orange", "ERROR": "red", "STALE": "grey"}
-    fig, axes = _figure(size=(8.0, 1.0 + 0.35 * len(names)))
+    fig, axes = figure(size=(8.0, 1.0 + 0.35 * len(names)))
     ax = axes[0][0]
     for t, name, level, _ in found:
         ax.plot(t, names.index(name), "|", ms=12, color=colors.get(level, "black"))
     ax.set_yticks(range(len(names)), names, fontsize=7)
     ax.set_xlabel("time [s] (orange WARN, red ERROR, grey STALE)")
-    return _save(fig, path)
+    return save(fig, path)

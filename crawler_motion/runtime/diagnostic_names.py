@@ -8,12 +8,17 @@ publishing node's name, qualified by its namespace when it has one (`status_pref
 A node reading ``/diagnostics`` keeps the statuses of its own namespace (`same_robot`). A name
 without the ``<node>: `` form cannot be placed and counts for every robot (a fault of unknown
 origin pauses rather than being ignored).
+
+The keys that tools read from another node's status live here too (one spelling):
+`BODY_CONTACTS_KEY`.
 """
 
 from __future__ import annotations
 
 #: Separator between the node part and the rest of a status name.
 SEPARATOR = ": "
+#: Key of the simulator's count of manager ticks with the hull or a leg link in contact.
+BODY_CONTACTS_KEY = "hull or leg contact ticks"
 
 
 def status_prefix(namespace: str, node_name: str) -> str:

@@ -19,7 +19,11 @@ EXECUTABLES = {"motor_manager_sim": "crawler_motion.sim.manager_cli",
                "driver_node": "crawler_motion.driver.node",
                "planner_node": "crawler_motion.planner.node",
                "controller_node": "crawler_motion.controller.node",
-               "seabed_sim": "crawler_motion.sim.seabed.node"}
+               "seabed_sim": "crawler_motion.sim.seabed.node",
+               "terrain_mapper": "crawler_motion.mapping.node",
+               "navigator": "crawler_motion.navigation.node",
+               "recorder": "crawler_motion.recording.recorder",
+               "crawler-motion": "crawler_motion.tools.cli"}
 #: Short process names (log files ``<name>.log``) of the benches and tests.
 SHORT_NAMES = {"motor_manager_sim": "sim", "driver_node": "driver", "planner_node": "planner",
                "seabed_sim": "seabed", "controller_node": "controller"}

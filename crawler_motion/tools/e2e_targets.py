@@ -50,21 +50,18 @@ class Target:
     max_cpu_percent: float | None = None
 
     def bounds(self) -> list[str]:
-        """The bounds as text."""
-        out = []
-        if self.extra_skipped_per_10s is not None:
-            out.append(f"deadlines skipped <= floor + {self.extra_skipped_per_10s:g} per 10 s")
-        if self.extra_p99_ms is not None:
-            out.append(f"p99 period error <= floor + {self.extra_p99_ms:g} ms")
-        if self.p99_latency_ms is not None:
-            out.append(f"JointState->CAN p99 <= {self.p99_latency_ms:g} ms")
-        if self.cpu_ms_per_command is not None:
-            out.append(f"CPU <= {self.cpu_ms_per_command:g} ms per command")
-        if self.min_rate is not None:
-            out.append(f">= {self.min_rate:g} Hz achieved")
-        if self.max_cpu_percent is not None:
-            out.append(f"CPU <= {self.max_cpu_percent:g} % of a core")
-        return out
+        """The bounds as text (those judged)."""
+        return [text.format(value) for name, text in BOUND_TEXT
+                if (value := getattr(self, name)) is not None]
+
+
+#: How each bound of a `Target` reads ({:g}: its value), in the order they are printed.
+BOUND_TEXT = (("extra_skipped_per_10s", "deadlines skipped <= floor + {:g} per 10 s"),
+              ("extra_p99_ms", "p99 period error <= floor + {:g} ms"),
+              ("p99_latency_ms", "JointState->CAN p99 <= {:g} ms"),
+              ("cpu_ms_per_command", "CPU <= {:g} ms per command"),
+              ("min_rate", ">= {:g} Hz achieved"),
+              ("max_cpu_percent", "CPU <= {:g} % of a core"))
 
 
 #: The targets per (pipeline, rate [Hz]).

@@ -21,6 +21,7 @@ import numpy as np
 
 from crawler_motion.bringup.lineup import BringUpOptions, lineup
 from crawler_motion.bringup.supervisor import Supervisor
+from crawler_motion.runtime.diagnostic_names import BODY_CONTACTS_KEY
 from crawler_motion.testing.bus import BusSpec
 from crawler_motion.testing.stack import isolated_env
 from crawler_motion.tools.procstat import cpu_seconds
@@ -28,8 +29,6 @@ from crawler_motion.tools.procstat import cpu_seconds
 #: Navigation states that end a goal or a follow, and mission states that end a mission.
 FINAL = ("ARRIVED", "FAILED", "IDLE")
 MISSION_FINAL = ("DONE", "FAILED", "CANCELLED", "REFUSED")
-#: Diagnostics key of the simulator's contact count (`sim.seabed.node.BODY_CONTACTS_KEY`).
-CONTACTS_KEY = "hull or leg contact ticks"
 
 
 @dataclass
@@ -109,7 +108,7 @@ class _Watch:
     def _diag(self, msg: Any) -> None:
         for status in msg.status:
             for kv in status.values:
-                if kv.key == CONTACTS_KEY:
+                if kv.key == BODY_CONTACTS_KEY:
                     self.contacts = int(kv.value)
 
 

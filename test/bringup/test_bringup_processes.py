@@ -17,6 +17,7 @@ import pytest
 pytest.importorskip("rclpy")
 pytest.importorskip("mujoco")
 
+from crawler_motion.bringup.lineup import BACKGROUND_NICE
 from crawler_motion.testing.bus import BusSpec
 from crawler_motion.testing.stack import isolated_env, manager_process
 
@@ -88,6 +89,11 @@ def alive(pid: int) -> bool:
         f"/proc/{pid}/stat").read_text().split(")")[1][:3]
 
 
+def niceness(pid: int) -> int:
+    """The niceness of ``pid`` (field 19 of ``/proc/PID/stat``)."""
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[16])
+
+
 def test_sim_comes_up_without_error_and_ctrl_c_ends_every_process(tmp_path: Path,
                                                                   ros_domain: int) -> None:
     import rclpy
@@ -112,6 +118,11 @@ def test_sim_comes_up_without_error_and_ctrl_c_ends_every_process(tmp_path: Path
         assert set(pids) == set(names) and run.lines[0].startswith(
             "crawler-motion sim: ready: seabed_sim"), run.text
         assert all(alive(pid) for pid in pids.values())
+        mine = os.nice(0)  # the motion loop at the bring-up's niceness, the rest nicer
+        assert {n: niceness(p) - mine for n, p in pids.items()} == {
+            "seabed_sim": 0, "driver_node": 0, "planner_node": 0,
+            "terrain_mapper": BACKGROUND_NICE, "navigator": BACKGROUND_NICE,
+            "recorder": BACKGROUND_NICE}
         stand = subprocess.run([*CLI, "console", "--timeout", "30", "stand"],
                                env=isolated_env(ros_domain), capture_output=True, text=True,
                                timeout=90)

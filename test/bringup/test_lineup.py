@@ -8,6 +8,7 @@ import pytest
 
 from crawler_motion.bringup.checks import check_output, check_port_free, check_world
 from crawler_motion.bringup.lineup import (
+    BACKGROUND_NICE,
     BringUpOptions,
     check_namespace,
     check_params_file,
@@ -19,13 +20,15 @@ from crawler_motion.testing.bus import BusSpec
 SHIPPED_PARAMS = Path(__file__).resolve().parents[2] / "config" / "params.yaml"
 
 
-def names(options: BringUpOptions) -> list[tuple[str, int]]:
-    return [(m.name, m.stage) for m in lineup(options)]
+def names(options: BringUpOptions) -> list[tuple[str, int, int]]:
+    return [(m.name, m.stage, m.nice) for m in lineup(options)]
 
 
-def test_sim_starts_the_simulator_alone_then_the_rest():
-    assert names(BringUpOptions()) == [("seabed_sim", 0), ("controller_node", 1),
-                                       ("terrain_mapper", 1), ("navigator", 1)]
+def test_sim_starts_the_simulator_then_the_controller_then_the_rest_nicer():
+    assert names(BringUpOptions()) == [
+        ("seabed_sim", 0, 0), ("controller_node", 1, 0),
+        ("terrain_mapper", 2, BACKGROUND_NICE), ("navigator", 2, BACKGROUND_NICE)]
+    assert BACKGROUND_NICE > 0
 
 
 def test_split_runs_the_driver_and_the_planner_apart():
@@ -41,6 +44,9 @@ def test_up_has_no_simulator_and_record_and_view_join(tmp_path: Path):
     assert [m.name for m in members] == ["controller_node", "terrain_mapper", "navigator",
                                          "recorder", "view"]
     assert str(tmp_path / "run.mcap") in members[3].command
+    assert {m.name: m.nice for m in members} == {
+        "controller_node": 0, "terrain_mapper": BACKGROUND_NICE, "navigator": BACKGROUND_NICE,
+        "recorder": BACKGROUND_NICE, "view": BACKGROUND_NICE}
 
 
 def test_every_node_gets_the_file_the_namespace_and_the_bus(tmp_path: Path):

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -102,18 +104,27 @@ class World:
         return bool(self.twists) and self.twists[-1].linear.x == 0.0
 
 
-def test_a_stale_map_or_another_cmd_vel_publisher_holds_the_goal(tmp_path: Path,
-                                                                  ros_domain: int) -> None:
+@contextmanager
+def walking_navigator(tmp_path: Path, domain: int, **params: Any) -> Iterator[World]:
+    """The navigator process (``params``) walking a goal 0.8 m ahead in the scripted world."""
     procs = StackProcesses(tmp_path)
-    procs.start({"navigator": [*node_command("navigator"),
-                               *ros_args({"map_max_age": 0.5, "timeout": 60.0})]},
-                isolated_env(ros_domain))
+    procs.start({"navigator": [*node_command("navigator"), *ros_args(params)]},
+                isolated_env(domain))
     world = World()
     try:
         assert world.spin_until(lambda: world.status.get("state") == "IDLE", 20.0), (
             procs.log_tails(20))
         world.send_goal(0.8)
         assert world.spin_until(world.walking, 5.0), procs.log_tails(20)
+        yield world
+    finally:
+        world.node.destroy_node()
+        procs.stop()
+
+
+def test_a_stale_map_or_another_cmd_vel_publisher_holds_the_goal(tmp_path: Path,
+                                                                  ros_domain: int) -> None:
+    with walking_navigator(tmp_path, ros_domain, map_max_age=0.5, timeout=60.0) as world:
         # the mapper stops fusing: maps keep coming with fresh stamps, the content ages
         world.fresh = False
         assert world.spin_until(lambda: "fresh map" in world.status.get("reason", ""), 3.0), (
@@ -157,25 +168,11 @@ def test_a_stale_map_or_another_cmd_vel_publisher_holds_the_goal(tmp_path: Path,
         assert world.spin_until(lambda: world.status.get("foreign_twists_refused") == 1, 3.0)
         assert world.status["state"] == "ACTIVE", world.status
         assert world.spin_until(world.walking, 3.0)
-    finally:
-        world.node.destroy_node()
-        procs.stop()
 
 
 def test_a_dead_mapper_holds_the_goal_with_the_reason(tmp_path: Path, ros_domain: int) -> None:
-    procs = StackProcesses(tmp_path)
-    procs.start({"navigator": [*node_command("navigator"),
-                               *ros_args({"map_max_age": 0.5})]}, isolated_env(ros_domain))
-    world = World()
-    try:
-        assert world.spin_until(lambda: world.status.get("state") == "IDLE", 20.0), (
-            procs.log_tails(20))
-        world.send_goal(0.8)
-        assert world.spin_until(world.walking, 5.0), procs.log_tails(20)
+    with walking_navigator(tmp_path, ros_domain, map_max_age=0.5) as world:
         world.mapper_alive = False  # no map at all any more
         assert world.spin_until(lambda: "fresh map" in world.status.get("reason", ""), 3.0), (
             world.status)
         assert world.spin_until(world.stopped, 1.0) and world.status["state"] == "ACTIVE"
-    finally:
-        world.node.destroy_node()
-        procs.stop()

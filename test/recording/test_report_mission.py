@@ -13,6 +13,7 @@ import numpy as np
 from crawler_motion.recording.reader import Recording
 from crawler_motion.recording.report import write_report
 from crawler_motion.recording.report_mission import HEADER, draw_mission, task_rows
+from crawler_motion.runtime.diagnostic_names import BODY_CONTACTS_KEY
 
 SEC = 1_000_000_000
 
@@ -28,7 +29,7 @@ def status(index: int, kind: str, state: str, distance: float, covered=None, rea
 
 
 def diag(contacts: int, level: int = 0) -> Ns:
-    kv = Ns(key="hull or leg contact ticks", value=str(contacts))
+    kv = Ns(key=BODY_CONTACTS_KEY, value=str(contacts))
     return Ns(status=[Ns(name="seabed_sim: physics", level=level, message="x", values=[kv])])
 
 

@@ -23,11 +23,12 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.time import Time
 from sensor_msgs.msg import Imu, PointCloud2, PointField
 
 from crawler_motion.canbus.bus import describe_bus, open_bus
+from crawler_motion.runtime.diagnostic_names import BODY_CONTACTS_KEY
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 from crawler_motion.sim.motor_manager import MotorManagerSim
@@ -40,13 +41,16 @@ SENSOR_PERIOD = 0.01  # imu period [s]; odom every second one
 SCAN_POLL_PERIOD = 0.02  # [s]
 DIAGNOSTICS_PERIOD = 1.0  # [s]
 HARDWARE_ID = "seabed_sim"
-#: Diagnostics key of the count of manager ticks with the hull or a leg link in contact.
-BODY_CONTACTS_KEY = "hull or leg contact ticks"
 FRAME_ODOM, FRAME_BASE, FRAME_SCANNER = "odom", "base_link", "scanner_link"
 
 
 def _xyzw(target: Any, wxyz: np.ndarray) -> None:
     target.w, target.x, target.y, target.z = (float(v) for v in wxyz)
+
+
+def _stamp(seconds: float) -> Any:
+    """A header stamp of ``seconds`` [s] of the node's clock."""
+    return Time(nanoseconds=round(seconds * 1e9)).to_msg()
 
 
 def _xyz(target: Any, values: np.ndarray) -> None:
@@ -74,7 +78,8 @@ class SeabedSimNode(Node):
         for spec in SEABED_PARAMETERS:
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
         values = {spec.name: self._value(spec.name) for spec in SEABED_PARAMETERS}
-        self.sim: Simulator = build_simulator(values)  # ConfigError: nothing started
+        # states stamped when the physics reaches them (ConfigError: nothing started)
+        self.sim: Simulator = build_simulator(values, self._seconds)
         where = describe_bus(values["can_interface"], values["can_channel"],
                              values["can_port"])
         self._bus = open_bus(values["can_interface"], values["can_channel"],
@@ -122,13 +127,17 @@ class SeabedSimNode(Node):
             return
         self.get_logger().info(f"{NAME}: pictures {png} {gif} ({len(snapshots)} states)")
 
+    def _seconds(self) -> float:
+        """The node's clock [s] (called from the manager thread)."""
+        return self.get_clock().now().nanoseconds * 1e-9
+
     def _value(self, name: str) -> Any:
         value = self.get_parameter(name).value
         return value if isinstance(value, (bool, int, float, str)) else tuple(value)
 
     def _publish_sensors(self) -> None:
         sample = self.sim.plant.sample()
-        stamp = self.get_clock().now().to_msg()
+        stamp = _stamp(sample.stamp)
         self._imu.publish(self._imu_message(sample, stamp))
         self._ticks += 1
         if self._ticks % 2 == 0:
@@ -164,12 +173,11 @@ class SeabedSimNode(Node):
         scan = self.sim.plant.take_scan()
         if scan is None:
             return
-        msg = cloud_message(scan[1])
-        # stamped when it was taken: the physics runs in real time, so that is now minus the
-        # simulated time since (up to a poll period; the odometry's pose is the newest sample)
-        age = max(0.0, self.sim.plant.sample().time - scan[0])
-        msg.header.stamp = (self.get_clock().now() - Duration(nanoseconds=round(age * 1e9))
-                            ).to_msg()
+        msg = cloud_message(scan.points)
+        # stamped when the physics took it, as the odometry of the same instant: a scan and
+        # the pose it was taken from agree whenever either message is sent (a late timer on
+        # a busy computer would otherwise pair a scan with another instant's pose)
+        msg.header.stamp = _stamp(scan.stamp)
         msg.header.frame_id = FRAME_SCANNER
         self._scan.publish(msg)
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -91,9 +91,11 @@ def check_values(values: Mapping[str, Any]) -> None:
         raise ConfigError(f"invalid seabed_sim parameters: {'; '.join(reasons)}")
 
 
-def build_simulator(values: Mapping[str, Any]) -> Simulator:
-    """The simulator of checked parameter values (name -> value); `ConfigError` naming the
-    file and the problem when the configuration or the world is bad."""
+def build_simulator(values: Mapping[str, Any],
+                    clock: Callable[[], float] | None = None) -> Simulator:
+    """The simulator of checked parameter values (name -> value), its plant stamping states
+    with ``clock`` [s] (`SeabedPlant`); `ConfigError` naming the file and the problem when
+    the configuration or the world is bad."""
     from crawler_motion.model.calibration_file import config_with_calibration
     from crawler_motion.model.config import load_config, load_scanner
 
@@ -115,5 +117,5 @@ def build_simulator(values: Mapping[str, Any]) -> Simulator:
     record, fps = str(values["record"]), float(values["record_fps"])
     plant = SeabedPlant(sm, protocol, scanner, PlantSettings(
         gyro_noise=float(values["imu_noise"]), accel_noise=float(values["imu_accel_noise"]),
-        scan_period=1.0 / mount.rate, snapshot_period=1.0 / fps if record else 0.0))
+        scan_period=1.0 / mount.rate, snapshot_period=1.0 / fps if record else 0.0), clock)
     return Simulator(sm, plant, protocol, float(values["command_timeout"]), record, fps)

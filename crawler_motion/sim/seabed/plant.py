@@ -27,7 +27,8 @@ BAD_STATE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN
 
 @dataclass(frozen=True)
 class BodySample:
-    """The body's state at simulated ``time`` [s]; vectors of base_link unless said.
+    """The body's state at simulated ``time`` [s], reached at ``stamp`` [s] of the plant's
+    clock (the simulated time without one); vectors of base_link unless said.
 
     ``position`` [m] and ``orientation`` (w, x, y, z) in the world; ``linear_velocity`` [m/s]
     and ``angular_velocity`` [rad/s] in base_link (the twist of ``odom``); ``imu_*``: the IMU's
@@ -43,6 +44,17 @@ class BodySample:
     imu_orientation: np.ndarray
     imu_angular_velocity: np.ndarray
     imu_linear_acceleration: np.ndarray
+    stamp: float = 0.0
+
+
+@dataclass(frozen=True)
+class Scan:
+    """A scan taken at simulated ``time`` [s], reached at ``stamp`` [s] of the plant's clock
+    (as `BodySample`): ``points`` ``(k, 3)`` in scanner_link [m]."""
+
+    time: float
+    stamp: float
+    points: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -95,8 +107,13 @@ class SeabedPlant:
 
     def __init__(self, sm: SeabedModel, protocol: MotorProtocol,
                  scanner: RangeScanner | None = None,
-                 settings: PlantSettings | None = None) -> None:
+                 settings: PlantSettings | None = None,
+                 clock: Callable[[], float] | None = None) -> None:
         self.sm, self.protocol, self.scanner = sm, protocol, scanner
+        #: Time [s] of the host's clock when a state is reached (None: the simulated time):
+        #: the stamp of every sample and scan, so that they agree with each other whenever
+        #: the messages carrying them are sent.
+        self.clock = clock
         self.settings = settings or PlantSettings()
         self.data = sm.make_data()
         self.failure: str | None = None
@@ -111,10 +128,10 @@ class SeabedPlant:
         self._torque_steps = 0
         self.on_step: Callable[[mujoco.MjData], None] | None = None
         self._next_scan = 0.0  # [s] simulated time
-        self._scan: tuple[float, np.ndarray] | None = None
+        self._scan: Scan | None = None
         self.snapshots: list[np.ndarray] = []  # qpos, one per snapshot period
         sm.settle(self.data, SETTLE_TIME)
-        self._sample = self._measure()
+        self._sample = self._measure(self.clock() if self.clock else float(self.data.time))
         self._next_snapshot = float(self.data.time)  # [s] simulated time
         self._keep_snapshot()
         self._pos = self.protocol.to_axis(self.data.qpos[sm.qpos_index])
@@ -142,8 +159,9 @@ class SeabedPlant:
         self._pos = self.protocol.to_axis(self.data.qpos[self.sm.qpos_index])
         if body_contact(self.sm, self.data):
             self.body_contacts += 1
-        sample = self._measure()
-        scan = self._scan_if_due()
+        stamp = self.clock() if self.clock is not None else float(self.data.time)
+        sample = self._measure(stamp)
+        scan = self._scan_if_due(stamp)
         self._keep_snapshot()
         with self._lock:
             self._sample = sample
@@ -178,9 +196,8 @@ class SeabedPlant:
         with self._lock:
             return self._sample
 
-    def take_scan(self) -> tuple[float, np.ndarray] | None:
-        """The latest scan (simulated time [s], points ``(k, 3)`` in scanner_link [m]) once;
-        None when there is no new one."""
+    def take_scan(self) -> Scan | None:
+        """The latest scan once; None when there is no new one."""
         with self._lock:
             scan, self._scan = self._scan, None
             return scan
@@ -191,13 +208,13 @@ class SeabedPlant:
             self.snapshots.append(self.data.qpos.copy())
             self._next_snapshot += period
 
-    def _scan_if_due(self) -> tuple[float, np.ndarray] | None:
+    def _scan_if_due(self, stamp: float) -> Scan | None:
         if self.scanner is None or self.data.time < self._next_scan:
             return None
         self._next_scan = max(self._next_scan + self.settings.scan_period, self.data.time)
-        return float(self.data.time), self.scanner.points(self.data)
+        return Scan(float(self.data.time), stamp, self.scanner.points(self.data))
 
-    def _measure(self) -> BodySample:
+    def _measure(self, stamp: float) -> BodySample:
         d, s = self.data, self.settings
         quat = d.qpos[3:7].copy()
         rot = d.xmat[self.sm.base_body].reshape(3, 3)
@@ -207,4 +224,5 @@ class SeabedPlant:
             linear_velocity=rot.T @ d.qvel[:3], angular_velocity=d.qvel[3:6].copy(),
             imu_orientation=imu_quat,
             imu_angular_velocity=gyro + self._rng.normal(0.0, s.gyro_noise, 3),
-            imu_linear_acceleration=accel + self._rng.normal(0.0, s.accel_noise, 3))
+            imu_linear_acceleration=accel + self._rng.normal(0.0, s.accel_noise, 3),
+            stamp=stamp)

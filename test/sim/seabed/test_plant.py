@@ -138,8 +138,25 @@ def test_a_scan_comes_once_per_scan_period(plant: SeabedPlant) -> None:
     for _ in range(10):
         plant.advance(0.01, plant.initial_axes)
     scan = plant.take_scan()
-    assert scan is not None and scan[1].shape[1] == 3 and len(scan[1]) > 50
+    assert scan is not None and scan.points.shape[1] == 3 and len(scan.points) > 50
+    assert scan.stamp == scan.time  # no clock: the simulated time
     assert plant.take_scan() is None
+
+
+def test_samples_and_scans_carry_the_clock_time_their_state_was_reached(
+        cfg: Config, protocol: MotorProtocol) -> None:
+    ticks = iter(range(1000, 2000))
+    sm = SeabedModel(cfg.robot, SimSettings(), "wall")
+    plant = SeabedPlant(sm, protocol, RangeScanner(sm, load_scanner()),
+                        clock=lambda: float(next(ticks)))
+    plant.take_scan()
+    stamps = []
+    for _ in range(10):
+        plant.advance(0.01, plant.initial_axes)
+        stamps.append(plant.sample().stamp)
+    scan = plant.take_scan()
+    assert stamps == [float(t) for t in range(1001, 1011)]  # one reading per advance
+    assert scan is not None and scan.stamp in stamps
 
 
 def test_a_non_finite_state_stops_the_plant_and_keeps_the_last_positions(
