@@ -26,6 +26,12 @@ MEDIA = ("water", "land")
 #: Time the simulator gets after its node is up before the driver opens the bus [s]: its
 #: physics and heartbeats start after the node appears (a driver started at once saw gaps).
 SIM_SETTLE = 2.0
+#: Heartbeat periods the driver waits for the simulator's heartbeat (the real manager: the
+#: driver's default, 3). The simulated manager is a Python thread of ``seabed_sim``: when a
+#: participant joins the graph, a DDS publish of the node can hold the interpreter, and the
+#: heartbeat with it, for 0.25-0.45 s (measured, docs/running.md); 5 periods (0.5 s) keep that
+#: from pausing the robot. The driver's own stalls never count (it judges the time it listened).
+SIM_HEARTBEAT_TIMEOUT_PERIODS = 5
 #: Niceness of the members that do not close the motion loop (mapper, navigator, recorder,
 #: view): on a busy computer the simulator and the controller get the CPU first, so a burst
 #: of mapping or a start-up never delays a heartbeat or a tick.
@@ -123,6 +129,7 @@ def lineup(options: BringUpOptions) -> list[Member]:
     driver = {**bus, "autostart": True, **extra.get("driver", {})}
     if options.simulate:  # a shared desktop starves processes now and then (see the demo)
         driver.setdefault("command_timeout", STACK_COMMAND_TIMEOUT)
+        driver.setdefault("heartbeat_timeout_periods", SIM_HEARTBEAT_TIMEOUT_PERIODS)
     planner = dict(extra.get("planner", {}))
     if options.split:
         out.append(Member("driver_node", ("driver",),

@@ -261,6 +261,8 @@ class DriverCore:
         while handled < MAX_FRAMES_PER_POLL:
             msg = self._link.recv(wait, self._loop.stopping.wait)
             if msg is None:
+                with self._lock:
+                    self._feedback.listened = self._clock()
                 return handled
             wait, handled = 0.0, handled + 1
             with self._lock:

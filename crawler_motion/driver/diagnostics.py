@@ -14,6 +14,9 @@ from crawler_motion.driver.outbox import Outbox
 from crawler_motion.driver.settings import DriverSettings
 
 #: Axis flags that are faults, in the order they are reported.
+#: The longest the CAN receiver may go without taking the bus's frames before the driver
+#: reports itself stalled (ERROR) [s].
+RECEIVE_STALL_LIMIT = 1.0
 FAULT_BITS = ("over_current", "over_temp", "encoder_fault")
 #: Axis flags reported as values, in order.
 FLAG_VALUES = ("enabled", "tracking", *FAULT_BITS, "stalled", "command_timeout")
@@ -78,6 +81,12 @@ class DriverDiagnostics:
                                                                            counts),
                 *self.axes(now, settings)]
 
+    def heard_until(self, now: float) -> float:
+        """The steady time [s] up to which the receiver has taken the bus's frames: ``now``
+        unless it has not run since (what was sent meanwhile is queued, not missing)."""
+        listened = self.feedback.listened
+        return now if listened is None else min(now, listened)
+
     def _link_problems(self, now: float, hb_timeout: float, settings: DriverSettings,
                        errors: list[str], warnings: list[str]) -> None:
         link, fb = self.link, self.feedback
@@ -87,14 +96,21 @@ class DriverDiagnostics:
         if not link.ok:
             errors.append(f"CAN bus down for {now - (link.down_since or now):.3f} s")
         state = fb.heartbeat.state if fb.heartbeat else "unknown"
+        # the manager is silent only for as long as the driver listened: a stall of this
+        # process (DDS discovery can hold the GIL ~0.3 s, runtime/dds.py) leaves the
+        # heartbeats queued on the bus, not missing
+        listened = self.heard_until(now)
+        if now - listened > max(hb_timeout, RECEIVE_STALL_LIMIT):
+            errors.append(f"CAN receiver stalled: no frame taken off the bus for "
+                          f"{now - listened:.3f} s")
         if fb.heartbeat_time is None:
             silent = now - (link.open_time or now)
             if silent > max(hb_timeout, settings.heartbeat_startup_grace):
                 errors.append(f"no heartbeat from the motor manager for {silent:.3f} s")
             else:
                 warnings.append("waiting for the first heartbeat")
-        elif now - fb.heartbeat_time > hb_timeout:
-            errors.append(f"heartbeat missing for {now - fb.heartbeat_time:.3f} s "
+        elif listened - fb.heartbeat_time > hb_timeout:
+            errors.append(f"heartbeat missing for {listened - fb.heartbeat_time:.3f} s "
                           f"(> {settings.heartbeat_timeout_periods} periods of "
                           f"{self.heartbeat_period:g} s)")
         elif state in ("estop", "fault"):
@@ -103,10 +119,10 @@ class DriverDiagnostics:
               and fb.heartbeat_time - self.gate.last_enable_tx > self.heartbeat_period):
             errors.append("motor manager is disabled although the driver enabled it; "
                           "call ~/enable")
-        if fb.heartbeat_time is not None and now - fb.heartbeat_time <= hb_timeout:
-            self._contradictions(now, hb_timeout, state, errors)
+        if fb.heartbeat_time is not None and listened - fb.heartbeat_time <= hb_timeout:
+            self._contradictions(listened, hb_timeout, state, errors)
 
-    def _contradictions(self, now: float, hb_timeout: float, state: str,
+    def _contradictions(self, heard: float, hb_timeout: float, state: str,
                         errors: list[str]) -> None:
         """A fresh heartbeat that contradicts what the driver commanded or measured."""
         gate, fb = self.gate, self.feedback
@@ -117,8 +133,8 @@ class DriverDiagnostics:
             errors.append(f"motor manager enabled, which the driver did not command (driver "
                           f"{gate.state.value})")
         since = fb.position_time if fb.position_time is not None else self.link.open_time
-        if since is not None and now - since > hb_timeout:
-            errors.append(f"heartbeat without positions for {now - since:.3f} s: the manager "
+        if since is not None and heard - since > hb_timeout:
+            errors.append(f"heartbeat without positions for {heard - since:.3f} s: the manager "
                           f"is frozen or the heartbeat forged")
 
     def _gate_problems(self, settings: DriverSettings, errors: list[str],
@@ -219,8 +235,9 @@ class DriverDiagnostics:
                 bits = [a for a in FAULT_BITS if getattr(flags, a)]
                 if bits:
                     level, message = Level.ERROR, f"fault: {', '.join(bits)}"
-                elif seen is not None and now - seen > stale_after:
-                    level, message = Level.STALE, f"no status for {now - seen:.3f} s"
+                elif seen is not None and self.heard_until(now) - seen > stale_after:
+                    level, message = (Level.STALE,
+                                      f"no status for {self.heard_until(now) - seen:.3f} s")
                 elif flags.stalled:
                     level, message = Level.ERROR, "stalled: not following the target"
                 elif flags.command_timeout:

@@ -57,6 +57,9 @@ class Feedback:
         self.flags_time: dict[int, float] = {}
         self.heartbeat: Heartbeat | None = None
         self.heartbeat_time: float | None = None
+        # when the receiver last took every pending frame off the bus: a heartbeat that was
+        # not heard while the driver was not listening (its process stalled) is not missing
+        self.listened: float | None = None
 
     def handle(self, msg: can.Message, now: float
                ) -> tuple[Heartbeat | None, tuple[np.ndarray, np.ndarray] | None]:

@@ -13,6 +13,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from crawler_motion.errors import CrawlerMotionError
+from crawler_motion.runtime.dds import dds_defaults
 
 #: Errors of a node's construction that mean "bad parameters or files": one line, exit 1.
 STARTUP_ERRORS: tuple[type[Exception], ...] = (CrawlerMotionError, ParameterException)
@@ -38,6 +39,7 @@ def run_nodes(make_nodes: Callable[[list[Node]], None], prefix: str,
     before a start-up error are destroyed too (in reverse order, as at the end)."""
     if switch_interval is not None:
         sys.setswitchinterval(switch_interval)
+    dds_defaults()
     rclpy.init(args=None if args is None else list(args))
     nodes: list[Node] = []
     failed = ""

@@ -39,6 +39,7 @@ from crawler_motion.bringup.lineup import (
 from crawler_motion.bringup.supervisor import BringUpError, Supervisor
 from crawler_motion.errors import CrawlerMotionError
 from crawler_motion.runtime.cli_args import OneLineParser, finite_number
+from crawler_motion.runtime.dds import dds_defaults
 from crawler_motion.testing.bus import BusSpec
 from crawler_motion.tools.procstat import cpu_seconds
 
@@ -228,7 +229,7 @@ class BringUp:
 def _env() -> dict[str, str]:
     import os
 
-    return dict(os.environ)
+    return dict(dds_defaults(dict(os.environ)))
 
 
 def main(argv: Sequence[str] | None = None, simulate: bool = True) -> int:

@@ -9,6 +9,7 @@ import pytest
 from crawler_motion.bringup.checks import check_output, check_port_free, check_world
 from crawler_motion.bringup.lineup import (
     BACKGROUND_NICE,
+    SIM_HEARTBEAT_TIMEOUT_PERIODS,
     BringUpOptions,
     check_namespace,
     check_params_file,
@@ -62,6 +63,10 @@ def test_every_node_gets_the_file_the_namespace_and_the_bus(tmp_path: Path):
     sim, controller = lineup(options)[:2]
     assert {"can_port:=12345", "world:=wall", "medium:=land"} <= set(sim.command)
     assert {"can_port:=12345", "autostart:=true"} <= set(controller.command)
+    # the simulated manager's heartbeat tolerance, on the simulator only
+    assert f"heartbeat_timeout_periods:={SIM_HEARTBEAT_TIMEOUT_PERIODS}" in controller.command
+    real = lineup(BringUpOptions(simulate=False, bus=options.bus))
+    assert not any("heartbeat_timeout_periods" in a for m in real for a in m.command)
 
 
 @pytest.mark.parametrize("namespace, result", [

@@ -726,6 +726,42 @@ def test_heartbeat_silence_is_an_error(rig):
     assert entry.level == ERROR and "heartbeat missing" in entry.message
 
 
+def stall(rig, seconds: float) -> None:
+    """``seconds`` of the manager running while the driver's process does not (its frames
+    queue on the bus)."""
+    for _ in range(round(seconds / DT)):
+        rig.sim.step(DT)
+        rig.clock.advance(DT)
+
+
+@pytest.mark.parametrize("stalled, level, text", [
+    (0.29, OK, "enabled"),  # shorter than the heartbeat timeout: nothing to say
+    (0.5, OK, "enabled"),  # the driver did not listen: the heartbeats are queued, not missing
+    (0.99, OK, "enabled"),
+    (1.01, ERROR, "CAN receiver stalled"),  # the driver itself is the fault
+])
+def test_a_stall_of_the_receiver_is_not_a_missing_heartbeat(rig, stalled, level, text):
+    rig.core.activate()
+    rig.run(0.3, STAND)
+    assert rig.entry("motor manager").level == OK
+    stall(rig, stalled)
+    entry = rig.entry("motor manager")
+    assert entry.level == level and text in entry.message, entry.message
+    rig.run(0.05, STAND)  # listening again: the queued heartbeats arrive
+    assert rig.entry("motor manager").level == OK
+
+
+def test_silence_while_listening_is_missing_after_a_stall(rig):
+    rig.core.activate()
+    rig.run(0.3, STAND)
+    rig.sim.silence_heartbeat()
+    stall(rig, 0.5)  # a stall of the driver ...
+    assert rig.entry("motor manager").level == OK
+    rig.run(0.35, STAND)  # ... then listening, and no heartbeat comes
+    entry = rig.entry("motor manager")
+    assert entry.level == ERROR and "heartbeat missing" in entry.message, entry.message
+
+
 @pytest.mark.parametrize("grace, waited, level", [
     (0.0, 0.29, WARN), (0.0, 0.31, ERROR),  # no grace: 3 heartbeat periods of 0.1 s
     (5.0, 0.31, WARN), (5.0, 4.99, WARN), (5.0, 5.01, ERROR),  # start-up grace
