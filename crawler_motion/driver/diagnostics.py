@@ -13,10 +13,10 @@ from crawler_motion.driver.link import BusLink
 from crawler_motion.driver.outbox import Outbox
 from crawler_motion.driver.settings import DriverSettings
 
-#: Axis flags that are faults, in the order they are reported.
 #: The longest the CAN receiver may go without taking the bus's frames before the driver
 #: reports itself stalled (ERROR) [s].
 RECEIVE_STALL_LIMIT = 1.0
+#: Axis flags that are faults, in the order they are reported.
 FAULT_BITS = ("over_current", "over_temp", "encoder_fault")
 #: Axis flags reported as values, in order.
 FLAG_VALUES = ("enabled", "tracking", *FAULT_BITS, "stalled", "command_timeout")
@@ -218,7 +218,7 @@ class DriverDiagnostics:
     def axes(self, now: float, settings: DriverSettings) -> list[StatusEntry]:
         """One entry per axis, in axis-map order."""
         stale_after = settings.heartbeat_timeout_periods * self.heartbeat_period
-        fb = self.feedback
+        fb, heard = self.feedback, self.heard_until(now)
         entries = []
         for i, m in enumerate(fb.protocol.axis_map):
             flags = fb.flags.get(m.axis)
@@ -235,9 +235,8 @@ class DriverDiagnostics:
                 bits = [a for a in FAULT_BITS if getattr(flags, a)]
                 if bits:
                     level, message = Level.ERROR, f"fault: {', '.join(bits)}"
-                elif seen is not None and self.heard_until(now) - seen > stale_after:
-                    level, message = (Level.STALE,
-                                      f"no status for {self.heard_until(now) - seen:.3f} s")
+                elif seen is not None and heard - seen > stale_after:
+                    level, message = Level.STALE, f"no status for {heard - seen:.3f} s"
                 elif flags.stalled:
                     level, message = Level.ERROR, "stalled: not following the target"
                 elif flags.command_timeout:

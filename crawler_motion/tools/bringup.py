@@ -229,7 +229,9 @@ class BringUp:
 def _env() -> dict[str, str]:
     import os
 
-    return dict(dds_defaults(dict(os.environ)))
+    env = dict(os.environ)
+    dds_defaults(env)
+    return env
 
 
 def main(argv: Sequence[str] | None = None, simulate: bool = True) -> int:
