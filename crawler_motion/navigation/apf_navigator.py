@@ -148,18 +148,25 @@ class ApfNavigator:
     disc: float = 0.0  # the field's disc radius of the last cycle (virtual radius + margin) [m]
     _since: float = 0.0
     _last: np.ndarray | None = None
+    tolerance: float = NavigatorSettings.goal_tolerance  # the goal's, of set_goal [m]
 
     def _start(self, mode: Mode, now: float) -> None:
         self.mode, self.state, self.reason, self._since = mode, NavState.ACTIVE, "", now
         self.virtual_goals, self.distinct, self.walked, self._last = [], [], 0.0, None
         self.heading, self.distance, self.path_length = None, None, None
 
-    def set_goal(self, x: float, y: float, now: float) -> None:
-        """A new goal (odom frame [m]); raises `CommandError` for a non-finite one."""
+    def set_goal(self, x: float, y: float, now: float, tolerance: float | None = None
+                 ) -> None:
+        """A new goal (odom frame [m]), arrived within ``tolerance`` [m] (None: the settings'
+        ``goal_tolerance``); raises `CommandError` for a non-finite goal or a tolerance not
+        > 0."""
         if not (math.isfinite(x) and math.isfinite(y)):
             raise CommandError(f"goal ({x}, {y}) is not finite; give x and y in metres")
+        if tolerance is not None and not (math.isfinite(tolerance) and tolerance > 0):
+            raise CommandError(f"goal tolerance {tolerance} must be a finite number > 0 [m]")
         self._start(Mode.GOTO, now)
         self.goal, self.command = np.array([x, y]), None
+        self.tolerance = self.settings.goal_tolerance if tolerance is None else tolerance
 
     def set_follow(self, command: FollowCommand, now: float) -> None:
         """Follow the nearest structure from the body's pose at the next map update."""
@@ -189,7 +196,7 @@ class ApfNavigator:
                 "heading": self.heading, "distance": self.distance, "rule": None,
                 "virtual_goals": [[round(float(v), 3) for v in g] for g in self.virtual_goals],
                 "virtual_goals_used": len(self.distinct), "path_length": self.path_length,
-                "disc_radius": round(self.disc, 4),
+                "disc_radius": round(self.disc, 4), "tolerance": self.tolerance,
                 "follow": None if c is None else {"length": c.length, "side": c.side.value,
                                                    "walked": round(self.walked, 3)}}
 
@@ -247,8 +254,8 @@ class ApfNavigator:
         if self.mode is Mode.GOTO:
             assert self.goal is not None
             self.distance = float(np.hypot(*(self.goal - xy)))
-            if self.distance <= s.goal_tolerance:
-                return self._finish(NavState.ARRIVED, f"within {s.goal_tolerance:g} m of the "
+            if self.distance <= self.tolerance:
+                return self._finish(NavState.ARRIVED, f"within {self.tolerance:g} m of the "
                                     "goal")
             return None
         assert self.command is not None

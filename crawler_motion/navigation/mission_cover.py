@@ -8,13 +8,14 @@ clear of the obstacles mapped so far (`CoverTask._clear_points`: a slice bends b
 the spacing round an obstacle), so an obstacle discovered during the task moves or drops
 waypoints and the navigator's field walks round it. Then a *clean-up pass* visits what the
 slices left: the nearest reachable cell not yet covered (measured), from a clear point within
-half the tool width of it, until none is left or `MAX_CLEANUPS` goals were sent. A waypoint
-the navigator cannot reach (trapped, or inside an obstacle found later) is skipped and counted,
-not a failure of the task.
+half the tool width of it with an arrival tolerance that covers the cell (`CoverTask._spot`),
+until none is left or `MAX_CLEANUPS` goals were sent; a clean-up goal ends when its cell is
+covered and is given up after `CLEANUP_LIMIT`. A waypoint the navigator cannot reach
+(trapped, or inside an obstacle found later) is skipped and counted, not a failure of the task.
 
-Covered share, measured: the free cells of the area the tool can reach (at least the disc
-radius, virtual radius + margin, plus the stand-off ρ_o minus half the tool width from every
-obstacle cell: where the waypoints may lie) within half the tool width of the walked path.
+Covered share, measured: the free cells of the area the tool can reach (within half the tool
+width of a point where the navigator's disc is ρ_o clear: `CoverageTracker.reachable`)
+within half the tool width of the walked path.
 """
 
 from __future__ import annotations
@@ -33,6 +34,12 @@ COVERED_PERIOD = 1.0
 #: Spacing of the waypoints along a slice [m]; most clean-up goals of one task.
 WAYPOINT_STEP = 0.3
 MAX_CLEANUPS = 40
+#: A clean-up goal not covering its cell within this time is given up [s].
+CLEANUP_LIMIT = 30.0
+#: Tightest arrival tolerance of a clean-up goal [m] (the walk's placement, a few cm/slot).
+MIN_TOLERANCE = 0.02
+#: Kept between the arrival tolerance and the tool's edge [m].
+TOLERANCE_SLACK = 0.005
 
 
 def inside_polygon(points: np.ndarray, polygon: list[tuple[float, float]]) -> np.ndarray:
@@ -78,10 +85,10 @@ class CoverageTracker:
         self.cells.update(map(tuple, keys[near].tolist()))
 
     def share(self, view: TerrainView, polygon: list[tuple[float, float]],
-              disc_radius: float) -> float:
-        """Covered share of the area's free cells that the tool can reach: at least
-        ``disc_radius`` minus half the tool width from every obstacle cell (0..1)."""
-        cells = self.reachable(view, polygon, disc_radius)
+              field: ObstacleField) -> float:
+        """Covered share of the area's free cells that the tool can reach (`reachable`)
+        (0..1)."""
+        cells = self.reachable(view, polygon, field)
         if not len(cells):
             return 0.0
         return float(self.covered(cells).mean())
@@ -92,26 +99,25 @@ class CoverageTracker:
         return np.array([tuple(k) in self.cells for k in keys.tolist()], dtype=bool)
 
     def reachable(self, view: TerrainView, polygon: list[tuple[float, float]],
-                  disc_radius: float) -> np.ndarray:
-        """Centres ``(k, 2)`` of the area's free cells the tool can reach."""
+                  field: ObstacleField) -> np.ndarray:
+        """Centres ``(k, 2)`` of the area's free cells the tool can reach: within half the
+        tool width of a point where the navigator's disc (``field``) is ρ_o clear, i.e.
+        ρ(cell) + half width >= ρ_o (the clearance grows at 1 m/m away from the nearest
+        obstacle cell)."""
         centres, obstacle = area_cells(view, polygon)
         free = centres[~obstacle]
         if not len(free):
             return free
-        obst = _obstacle_centres(view)
-        reach = np.ones(len(free), dtype=bool)
-        near = obst[np.all(np.abs(obst - free.mean(axis=0)) <= np.ptp(free, axis=0) / 2
-                           + disc_radius + view.resolution, axis=1)] if len(obst) else obst
-        if len(near):
-            gap = np.hypot(*(free[:, None, :] - near[None, :, :]).transpose(2, 0, 1)).min(
-                axis=1) - view.resolution / 2
-            reach = gap >= disc_radius - self.half
-        return free[reach]
+        rho = field.clearance(free)[0]
+        return free[rho + self.half >= field.settings.standoff]
 
 
-def _obstacle_centres(view: TerrainView) -> np.ndarray:
-    rows, cols = np.nonzero(view.obstacle)
-    return view.origin + (np.column_stack([cols, rows]) + 0.5) * view.resolution
+def cover_field(view: TerrainView, points: np.ndarray, disc: float,
+                standoff: float) -> ObstacleField:
+    """The navigator's field of the disc radius ``disc`` [m] (virtual radius + margin) and
+    stand-off ρ_o [m] on the map, holding ``points`` ``(k, 2)``."""
+    grid = planning_grid(view, points, disc + 0.5)
+    return ObstacleField(grid, disc, FieldSettings(standoff=standoff))
 
 
 def _key(xy: np.ndarray, resolution: float) -> tuple[int, int]:
@@ -130,6 +136,8 @@ class CoverTask:
         self._slices_done = 0
         self._along: float | None = None  # signed x of the slice's last waypoint
         self._goal: np.ndarray | None = None
+        self._cell: np.ndarray | None = None  # the clean-up goal's cell
+        self._sent = 0.0
         self._covered_at = -1e9
         self._cleanups = 0
         self._given_up: set[tuple[int, int]] = set()
@@ -151,30 +159,40 @@ class CoverTask:
 
     def after(self, view: TerrainView, disc: float, now: float) -> bool:
         """After a navigator cycle: measure, and on arrival (or failure) send the next goal;
-        False when the task is done."""
-        reach = disc + self.nav.settings.standoff
+        False when the task is done. A clean-up goal ends as soon as its cell is covered,
+        and is given up after `CLEANUP_LIMIT`."""
         if now - self._covered_at >= COVERED_PERIOD or self.nav.state is not NavState.ACTIVE:
             self._covered_at = now
-            self.covered = self.tracker.share(view, self.task.polygon, reach)
+            self.covered = self.tracker.share(view, self.task.polygon, self._field(view, disc))
+        cell = self._cell
         if self.nav.state is NavState.ACTIVE:
-            return True
-        if self.nav.state is NavState.FAILED:
+            if cell is None or not (self.tracker.covered(cell[None, :])[0]
+                                    or now - self._sent > CLEANUP_LIMIT):
+                return True
+            self.nav.cancel("clean-up cell covered")
+        if self.nav.state is NavState.FAILED or (
+                cell is not None and not self.tracker.covered(cell[None, :])[0]):
             self.skipped += 1
-            if self._slices_done >= len(self._slices(self.task)) and self._goal is not None:
-                self._given_up.add(_key(self._goal, view.resolution))
+            if cell is not None:
+                self._given_up.add(_key(cell, view.resolution))
         if self._slices_done < len(self._slices(self.task)) and self._goal is not None:
             sign = 1.0 if self._slices_done % 2 == 0 else -1.0
             self._along = float(self._goal[0]) * sign  # reached or given up: go on past it
         return self._next_goal(view, disc, now)
+
+    def _field(self, view: TerrainView, disc: float) -> ObstacleField:
+        return cover_field(view, np.asarray(self.task.polygon, dtype=float), disc,
+                           self.nav.settings.standoff)
 
     def _next_goal(self, view: TerrainView, disc: float, now: float) -> bool:
         if self._next_end(view, disc, now):
             return True
         return self._cleanup(view, disc, now)
 
-    def _send(self, target: np.ndarray, now: float) -> bool:
-        self._goal = target
-        self.nav.set_goal(float(target[0]), float(target[1]), now)
+    def _send(self, target: np.ndarray, now: float, cell: np.ndarray | None = None,
+              tolerance: float | None = None) -> bool:
+        self._goal, self._cell, self._sent = target, cell, now
+        self.nav.set_goal(float(target[0]), float(target[1]), now, tolerance)
         return True
 
     def _cleanup(self, view: TerrainView, disc: float, now: float) -> bool:
@@ -182,33 +200,40 @@ class CoverTask:
         none is left (or `MAX_CLEANUPS` were sent)."""
         if self._cleanups >= MAX_CLEANUPS:
             return False
-        cells = self.tracker.reachable(view, self.task.polygon,
-                                       disc + self.nav.settings.standoff)
+        fld = self._field(view, disc)
+        cells = self.tracker.reachable(view, self.task.polygon, fld)
         cells = cells[~self.tracker.covered(cells)] if len(cells) else cells
         keys = [_key(c, view.resolution) for c in cells]
         cells = cells[[k not in self._given_up for k in keys]] if len(cells) else cells
         for cell in cells[np.argsort(np.hypot(*(cells - self._xy).T))][:5]:
-            spot = self._spot(view, disc, cell)
+            spot = self._spot(fld, cell)
             if spot is not None:
                 self._cleanups += 1
-                return self._send(spot, now)
+                return self._send(spot[0], now, cell, spot[1])
             self._given_up.add(_key(cell, view.resolution))
         return False
 
-    def _spot(self, view: TerrainView, disc: float, cell: np.ndarray) -> np.ndarray | None:
-        """A clear point within half the tool width of ``cell``, nearest the body."""
-        r = max(self.tool_width / 2 - view.resolution / 4, 0.0)
+    def _spot(self, fld: ObstacleField, cell: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """A ρ_o-clear point within half the tool width of ``cell`` and the arrival tolerance
+        [m] that covers the cell from it: nearest the body among the points from which the
+        navigator's own tolerance does, else the point nearest the cell (a tighter
+        tolerance, at least `MIN_TOLERANCE`); None when no point is clear."""
+        half, tol = self.tracker.half, self.nav.settings.goal_tolerance
+        grad = fld.clearance(cell)[1]
+        out = cell + grad * np.arange(0.0, half, half / 8)[:, None]  # away from the nearest
         angles = np.linspace(0.0, 2 * math.pi, 12, endpoint=False)
-        ring = [cell] + [cell + f * r * np.array([math.cos(a), math.sin(a)])
-                         for f in (0.5, 1.0) for a in angles]
-        pts = np.array(ring)
-        grid = planning_grid(view, pts, disc + 0.5)
-        fld = ObstacleField(grid, disc, FieldSettings(standoff=self.nav.settings.standoff))
-        ok = fld.clearance(pts)[0] >= fld.settings.standoff
-        if not ok.any():
+        ring = np.column_stack([np.cos(angles), np.sin(angles)])
+        pts = np.vstack([out] + [cell + f * half * ring for f in (0.25, 0.5, 0.75, 0.95)])
+        pts = pts[fld.clearance(pts)[0] >= fld.settings.standoff]
+        if not len(pts):
             return None
-        pts = pts[ok]
-        return pts[int(np.argmin(np.hypot(*(pts - self._xy).T)))]
+        gap = np.hypot(*(pts - cell).T)
+        easy = gap <= half - tol
+        if easy.any():
+            pts = pts[easy]
+            return pts[int(np.argmin(np.hypot(*(pts - self._xy).T)))], tol
+        k = int(np.argmin(gap))
+        return pts[k], max(MIN_TOLERANCE, half - float(gap[k]) - TOLERANCE_SLACK)
 
     def _slices(self, task: Task) -> list[float]:
         poly = np.asarray(task.polygon)
@@ -232,8 +257,7 @@ class CoverTask:
         ok = inside_polygon(flat, task.polygon)
         if not ok.any():
             return np.zeros((0, 2))
-        grid = planning_grid(view, flat[ok], disc + 0.5)
-        fld = ObstacleField(grid, disc, FieldSettings(standoff=self.nav.settings.standoff))
+        fld = cover_field(view, flat[ok], disc, self.nav.settings.standoff)
         clear = np.zeros(len(flat), dtype=bool)
         clear[ok] = fld.clearance(flat[ok])[0] >= fld.settings.standoff
         clear = clear.reshape(len(offsets), len(xs))

@@ -61,7 +61,7 @@ from crawler_motion.navigation.guards import (
 )
 from crawler_motion.navigation.methods import make_navigator
 from crawler_motion.navigation.mission_topics import MissionTopics
-from crawler_motion.navigation.navigator import Method, NavState, goal_error
+from crawler_motion.navigation.navigator import Method, NavState, Output, goal_error
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
 from crawler_motion.navigation.planner_watch import RefusalWatch
 from crawler_motion.navigation.view import view_from_grid
@@ -306,11 +306,15 @@ class NavigatorNode(Node):
         nav.reason = ""
         disc = self.radius + nav.settings.margin
         ended = self.missions.before(self._pose, view, disc)
+        goal = nav.goal
         out = nav.step(self._pose, self.radius, view, time.monotonic())
         ended = self.missions.after(view, disc) or ended
-        if out.twist is not None and nav.state is NavState.ACTIVE and not any(out.twist):
-            # the mission sent the next waypoint in the same cycle: walk on, no stop
+        if nav.state is NavState.ACTIVE and (nav.goal is not goal or (
+                out.twist is not None and not any(out.twist))):
+            # the mission sent the next waypoint in the same cycle: walk on to it, no stop
             out = nav.step(self._pose, self.radius, view, time.monotonic())
+        elif nav.state is not NavState.ACTIVE and out.twist is not None and any(out.twist):
+            out = Output(twist=(0.0, 0.0, 0.0), changed=True)  # the mission dropped the goal
         if ended and out.twist is None:
             self._stop()  # a mission that ended in this cycle leaves the robot standing
         if out.twist is not None:

@@ -122,6 +122,29 @@ def test_goto_arrives_within_the_tolerance_and_stops() -> None:
     assert nav.state is NavState.ARRIVED and out.twist == (0.0, 0.0, 0.0)
 
 
+@pytest.mark.parametrize("tolerance, x, arrived", [
+    (None, 0.951, True),  # the settings' 0.05 m
+    (None, 0.949, False),
+    (0.02, 0.981, True),  # a goal's own, tighter tolerance
+    (0.02, 0.979, False),
+])
+def test_a_goal_arrives_within_its_own_tolerance(tolerance, x, arrived) -> None:
+    nav = ApfNavigator()
+    nav.set_goal(1.0, 0.0, 0.0, tolerance)
+    nav.step((x, 0.0, 0.0), RADIUS, view_of(()), 0.0)
+    assert (nav.state is NavState.ARRIVED) is arrived, nav.reason
+    assert nav.status()["tolerance"] == (tolerance or NavigatorSettings().goal_tolerance)
+
+
+@pytest.mark.parametrize("tolerance", [0.0, -0.01, math.nan, math.inf])
+def test_a_bad_goal_tolerance_is_refused_and_the_goal_kept(tolerance) -> None:
+    nav = ApfNavigator()
+    nav.set_goal(1.0, 0.0, 0.0)
+    with pytest.raises(CommandError, match="tolerance"):
+        nav.set_goal(2.0, 0.0, 0.0, tolerance)
+    assert nav.goal is not None and nav.goal.tolist() == [1.0, 0.0]
+
+
 @pytest.mark.parametrize("y, side, heading, sign", [
     (RADIUS + MARGIN + 0.10, Side.RIGHT, 0.0, 0),  # at ρ_o: along the wall
     (RADIUS + MARGIN + 0.05, Side.RIGHT, 0.0, +1),  # too close: away from the wall
