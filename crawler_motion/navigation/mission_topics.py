@@ -4,7 +4,8 @@ Missions walk on the improved potential field (`ApfNavigator`) whatever the node
 (with ``virtual_body``, an apf navigator of the same settings steers while a mission runs).
 ``mission`` (std_msgs/String): a mission file's text (`mission.parse_mission`); a bad one is
 refused through the navigator's refusal path (counted, logged, in ``navigation_status``) and
-``mission_status`` says why (state ``REFUSED``). A new mission replaces a running one.
+``mission_status`` says why (state ``REFUSED``). A new mission replaces a running one; the
+same text again while it runs is a sender's repeat and changes nothing.
 ``mission_status`` (std_msgs/String JSON, transient local): `MissionRunner.status` plus the
 time since the mission started, on every change of task or state and once a second. The navigator's
 ``~/cancel`` and a new ``goal_pose`` or ``follow_command`` cancel a running mission.
@@ -49,6 +50,7 @@ class MissionTopics:
         self._count = 0
         self._last = ""
         self._refused = ""
+        self._text = ""  # of the running mission
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._status = node.create_publisher(String, "mission_status", latched)
         node.create_subscription(String, "mission", self._on_mission, 10)
@@ -60,6 +62,8 @@ class MissionTopics:
         return self.runner is not None and self.runner.state is MissionState.RUNNING
 
     def _on_mission(self, msg: String) -> None:
+        if self.running and msg.data == self._text:
+            return  # a sender's repeat of the mission running (it had no answer yet)
         pose = self.pose()
         if pose is None:
             self._refuse("no odometry yet: the mission's home is unknown")
@@ -73,6 +77,7 @@ class MissionTopics:
         self.cancel("replaced by a new mission")
         self.runner = MissionRunner(mission, self.nav, np.array(pose[:2]), time.monotonic(),
                                     self.tool_width)
+        self._text = msg.data
         self._refused = ""
         self.on_start()
         self.node.get_logger().info(f"mission {mission.id}: {len(mission.tasks)} tasks")

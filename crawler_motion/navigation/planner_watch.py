@@ -1,7 +1,8 @@
 """What the planner says of the navigator's twists: a refusal that repeats ends the goal.
 
 The planner refuses a ``cmd_vel`` twist beyond what its walk can do (the speed or yaw rate of
-its gait and timing, `planner.commands.TWIST_BEYOND_LIMITS`) and records it in
+its gait and timing, `planner.commands.TWIST_BEYOND_LIMITS`), or any twist while the robot
+is not up (`planner.commands.needs_stand`: never stood, sat, or posed), and records it in
 ``planner_status`` (``refusals``, ``last_refusal``). The navigator would send the same twist
 again at every map, and the robot would stand while the goal stays ACTIVE until its timeout.
 `RefusalWatch` tells it instead, from the statuses, so it fails the goal with the planner's
@@ -16,7 +17,7 @@ from __future__ import annotations
 import json
 from collections.abc import Container
 
-from crawler_motion.planner.commands import TWIST_BEYOND_LIMITS
+from crawler_motion.planner.commands import TWIST_BEYOND_LIMITS, needs_stand
 
 
 class RefusalWatch:
@@ -44,7 +45,7 @@ class RefusalWatch:
             return None
         new = refusals > self._baseline
         self.refusals = refusals
-        if not (new and last.startswith(TWIST_BEYOND_LIMITS)):
+        if not (new and (last.startswith(TWIST_BEYOND_LIMITS) or needs_stand(last))):
             return None
         self._baseline = refusals
         refused = status.get("refused_twist")

@@ -50,8 +50,9 @@ TWIST_LIMIT_TOLERANCE = 1e-9
 #: A command shown in the messages about malformed JSON.
 _EXAMPLE = '{"command": "walk", "steps": 4}'
 
-__all__ = ["COMMAND_KEYS", "MAX_COMMAND_BYTES", "MAX_STEPS", "TWIST_BEYOND_LIMITS", "WALK_KEYS",
-           "Command", "field_ranges", "is_zero_twist", "parse_gait_command", "twist_limits",
+__all__ = ["COMMAND_KEYS", "MAX_COMMAND_BYTES", "MAX_STEPS", "STAND_FIRST",
+           "TWIST_BEYOND_LIMITS", "TWIST_IGNORED", "WALK_KEYS", "Command", "field_ranges",
+           "is_zero_twist", "needs_stand", "parse_gait_command", "twist_limits",
            "twist_to_params"]
 
 
@@ -213,6 +214,15 @@ def parse_gait_command(text: str, cfg: Config) -> Command:
 #: How the refusals of a twist beyond what the walk can do begin (speed, yaw rate, parameters):
 #: the same twist is refused again, so a navigator sending it fails its goal with the reason.
 TWIST_BEYOND_LIMITS = ("cmd_vel speed", "cmd_vel yaw rate", "cannot walk from cmd_vel")
+#: How a refused twist's text begins, and how it ends when the robot must stand first (not up:
+#: IDLE or SITTING, or a posed body); such a twist is refused again at every twist too.
+TWIST_IGNORED = "cmd_vel ignored"
+STAND_FIRST = "send stand first"
+
+
+def needs_stand(refusal: str) -> bool:
+    """Whether ``refusal`` refuses a twist until ``stand`` is sent."""
+    return refusal.startswith(TWIST_IGNORED) and refusal.endswith(STAND_FIRST)
 
 
 def _resolved(base: WalkParams, cfg: Config) -> WalkParams:

@@ -6,6 +6,8 @@ from crawler_motion.errors import CommandError
 from crawler_motion.model.config import Config
 from crawler_motion.motion.gait import WalkParams
 from crawler_motion.planner.commands import (
+    STAND_FIRST,
+    TWIST_IGNORED,
     Command,
     finite_float,
     is_zero_twist,
@@ -138,11 +140,11 @@ class WalkRequests:
         if ctx.state != STANDING:
             hint = ("send stop first" if ctx.state == WALKING
                     else "wait for STANDING" if ctx.state in (STOPPING, MOVING)
-                    else "send stand first")
-            ctx.journal.refuse(f"cmd_vel ignored in state {ctx.state}: {hint}", now)
+                    else STAND_FIRST)
+            ctx.journal.refuse(f"{TWIST_IGNORED} in state {ctx.state}: {hint}", now)
         if ctx.paused:
             ctx.journal.refuse(ctx.paused_reason(), now)
-        self._refuse_posed("cmd_vel ignored", now)
+        self._refuse_posed(TWIST_IGNORED, now)
         params = self._from_twist(vx, vy, wz, standing_base, now)
         self._check_upfront(params, 1, now)
         ctl.start(params, None, "cmd_vel", now)
@@ -153,7 +155,7 @@ class WalkRequests:
         pose = self.ctx.body_pose
         if not pose.is_neutral:
             self.ctx.journal.refuse(f"{what}: the body is posed ({pose.described()}); walks "
-                                    f"start from the neutral pose: send stand first", now)
+                                    f"start from the neutral pose: {STAND_FIRST}", now)
 
     def _from_twist(self, vx: float, vy: float, wz: float, base: WalkParams, now: float
                     ) -> WalkParams:

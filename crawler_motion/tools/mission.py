@@ -27,6 +27,9 @@ from crawler_motion.runtime.cli_args import OneLineParser, finite_number, split_
 PROG = "crawler-motion mission"
 #: Seconds between repeated progress lines.
 PROGRESS_PERIOD = 5.0
+#: The navigator must answer a mission within this time [s], sent this many times in it.
+ANSWER_TIMEOUT = 10.0
+ANSWER_TRIES = 5
 #: Exit status per final mission state.
 EXIT = {"DONE": 0, "FAILED": 2, "CANCELLED": 2, "REFUSED": 1}
 
@@ -105,14 +108,19 @@ class MissionClient:
             print(f"{PROG}: error: no navigator listening on mission", file=sys.stderr)
             return 1
         before = json.dumps(self.status)
-        self.pub.publish(self._string(data=text))
 
         def answered() -> bool:
             status = self.status or {}
             return json.dumps(self.status) != before and (
                 status.get("mission") == mid or status.get("state") == "REFUSED")
 
-        if not self.spin_until(answered, 10.0):
+        # sent again until answered: a subscriber just discovered may not hear the first one
+        # (the navigator ignores a repeat of the mission it runs)
+        for _ in range(ANSWER_TRIES):
+            self.pub.publish(self._string(data=text))
+            if self.spin_until(answered, ANSWER_TIMEOUT / ANSWER_TRIES):
+                break
+        else:
             print(f"{PROG}: error: the navigator did not take the mission", file=sys.stderr)
             return 1
         last, printed = "", 0.0

@@ -35,6 +35,9 @@ def refusal_of(vx: float, wz: float = 0.0, gait: str = "diagonal_sway") -> str:
     ([status(2, refusal_of(0.08))], False),  # the refusal before the goal, seen again
     ([status(3, "cmd_vel ignored in state STOPPING: wait for STANDING")],
      False),  # a stop in progress: the next twist may be taken
+    ([status(3, "cmd_vel ignored in state IDLE: send stand first")], True),  # never stood
+    ([status(3, "cmd_vel ignored in state SITTING: send stand first")], True),
+    ([status(3, "walk refused in state IDLE: send stand first")], False),  # not a twist
     ([status(3, "paused: motor manager fault")], False),
     (["not json", "[]", json.dumps({"refusals": "x"}), json.dumps({"refusals": 9})], False),
 ])

@@ -16,6 +16,7 @@ from crawler_motion.model.kinematics import forward_kinematics
 from crawler_motion.motion.fastpath import Track
 from crawler_motion.motion.gait import GaitSequencer, WalkParams, plan_walk, standing_pose
 from crawler_motion.planner import moves, next_slot, upfront
+from crawler_motion.planner.commands import needs_stand
 from crawler_motion.planner.core import JointTarget, PlannerCore
 from crawler_motion.planner.held_stand import STAND_HOLD
 from crawler_motion.planner.moves import sitting_pose
@@ -821,3 +822,12 @@ def test_a_twist_refused_as_beyond_the_limits_is_named_in_the_status():
     with pytest.raises(CommandError):
         clock.send('{"command": "reset"}')  # another refusal: no twist named
     assert clock.core.status()["refused_twist"] is None
+
+
+@pytest.mark.parametrize("setup", [_idle, _stopping])
+def test_a_twist_the_robot_must_stand_for_says_so(setup):
+    """The text the navigator's watch reads: a twist refused until stand is sent, or not."""
+    clock = setup()
+    with pytest.raises(CommandError) as info:
+        clock.core.on_twist(0.05, 0.0, 0.0, clock.t)
+    assert needs_stand(str(info.value)) is (setup is _idle), str(info.value)
