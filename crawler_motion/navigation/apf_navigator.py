@@ -10,8 +10,9 @@ a margin. The robot is the planner's disc of the virtual radius plus ``margin``.
 - **goto** (`set_goal`): `plan` with virtual goals from the body to the goal, through the
   virtual goals still in use (those of the last plan the look-ahead point has not passed, and
   still clear), so that a detour once found is kept while the map grows instead of
-  re-discovered from every new pose. Trapped, or a goal or body inside an obstacle: FAILED
-  with the planner's reason, a zero twist (the planner stands).
+  re-discovered from every new pose. Trapped, or a goal or body inside an obstacle (a body
+  the map grew into is led out first: `ApfNavigator._field`): FAILED with the planner's
+  reason, a zero twist (the planner stands).
 - **follow** (`set_follow`): `follow` walks along the nearest structure (on the right or the
   left) at the stand-off distance; ARRIVED once the body has walked the length (odometry).
 
@@ -50,6 +51,9 @@ from crawler_motion.navigation.steering import twist
 
 #: How much clear the body's disc is made when the margin gives way [m].
 SQUEEZE = 0.005
+#: Share of the virtual radius (the farthest foot) the disc may shrink to, to lead a body out
+#: of obstacle cells the map grew into it: the inner half holds the hull and the hips.
+ESCAPE_SHARE = 0.5
 #: Virtual goals of successive plans closer than this count as one [m].
 SAME_GOAL = 0.15
 
@@ -232,14 +236,16 @@ class ApfNavigator:
 
     def _field(self, grid: Grid, xy: np.ndarray, radius: float) -> ObstacleField:
         """The field of the disc radius + margin; when the body is already closer to an
-        obstacle than that, the margin gives way (down to the bare virtual radius) so the plan
-        can lead out; a body overlapping with the bare radius is refused by the planner."""
+        obstacle than that, the disc gives way to the one that just clears (by `SQUEEZE`) so
+        the plan leads out: the margin first, then, when the map grew into the bare virtual
+        radius (a face revealed as the robot came near), down to `ESCAPE_SHARE` of it. A body
+        closer still is refused by the planner."""
         fs = FieldSettings(standoff=self.settings.standoff)
         fld = ObstacleField(grid, radius + self.settings.margin, fs)
         rho = float(fld.clearance(xy)[0])
         if rho > 0:
             return fld
-        return ObstacleField(grid, max(radius, fld.radius + rho - SQUEEZE), fs)
+        return ObstacleField(grid, max(ESCAPE_SHARE * radius, fld.radius + rho - SQUEEZE), fs)
 
     def _remember(self, goals: list[np.ndarray]) -> None:
         """Count a virtual goal once: re-plans place it again a little apart (within

@@ -11,7 +11,8 @@ slices left: the nearest reachable cell not yet covered (measured), from a clear
 half the tool width of it with an arrival tolerance that covers the cell (`CoverTask._spot`),
 until none is left or `MAX_CLEANUPS` goals were sent; a clean-up goal ends when its cell is
 covered and is given up after `CLEANUP_LIMIT`. A waypoint the navigator cannot reach
-(trapped, or inside an obstacle found later) is skipped and counted, not a failure of the task.
+(trapped, or inside an obstacle found later) is skipped and counted, not a failure of the task,
+unless `STUCK_FAILS` goals in a row fail from one place (`CoverTask._stuck`).
 
 Covered share, measured: the free cells of the area the tool can reach (within half the tool
 width of a point where the navigator's disc is ρ_o clear: `CoverageTracker.reachable`)
@@ -40,6 +41,9 @@ CLEANUP_LIMIT = 30.0
 MIN_TOLERANCE = 0.02
 #: Kept between the arrival tolerance and the tool's edge [m].
 TOLERANCE_SLACK = 0.005
+#: Goals failed in a row with the body within this distance [m] fail the task.
+STUCK_FAILS = 3
+STUCK_DISTANCE = 0.05
 
 
 def inside_polygon(points: np.ndarray, polygon: list[tuple[float, float]]) -> np.ndarray:
@@ -137,6 +141,9 @@ class CoverTask:
         self._along: float | None = None  # signed x of the slice's last waypoint
         self._goal: np.ndarray | None = None
         self._cell: np.ndarray | None = None  # the clean-up goal's cell
+        self.failed: str | None = None  # why the task cannot go on (`_stuck`)
+        self._fail_at: np.ndarray | None = None  # where a run of failed goals began
+        self._fails = 0
         self._sent = 0.0
         self._covered_at = -1e9
         self._cleanups = 0
@@ -170,6 +177,8 @@ class CoverTask:
                                     or now - self._sent > CLEANUP_LIMIT):
                 return True
             self.nav.cancel("clean-up cell covered")
+        if self.nav.state is NavState.FAILED and self._stuck(self.nav.reason):
+            return False
         if self.nav.state is NavState.FAILED or (
                 cell is not None and not self.tracker.covered(cell[None, :])[0]):
             self.skipped += 1
@@ -179,6 +188,19 @@ class CoverTask:
             sign = 1.0 if self._slices_done % 2 == 0 else -1.0
             self._along = float(self._goal[0]) * sign  # reached or given up: go on past it
         return self._next_goal(view, disc, now)
+
+    def _stuck(self, reason: str) -> bool:
+        """Count a failed goal; True (and `failed` says why) when `STUCK_FAILS` goals in a
+        row failed with the body within `STUCK_DISTANCE` of where the first did: the body,
+        not the waypoints, is the problem, and skipping on would skip every one."""
+        if self._fail_at is None or np.hypot(*(self._xy - self._fail_at)) > STUCK_DISTANCE:
+            self._fail_at, self._fails = self._xy.copy(), 0
+        self._fails += 1
+        if self._fails < STUCK_FAILS:
+            return False
+        self.failed = (f"{self._fails} goals in a row failed from ({self._xy[0]:.3f}, "
+                       f"{self._xy[1]:.3f}): {reason}")
+        return True
 
     def _field(self, view: TerrainView, disc: float) -> ObstacleField:
         return cover_field(view, np.asarray(self.task.polygon, dtype=float), disc,

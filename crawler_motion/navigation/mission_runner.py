@@ -106,7 +106,9 @@ class MissionRunner:
             more = self._cover.after(view, disc, now)
             self.covered, self.skipped = self._cover.covered, self._cover.skipped
             self.progress = self._cover.progress
-            if not more:
+            if self._cover.failed is not None:
+                self._fail(f"task {self.index + 1} ({task.kind.value}): {self._cover.failed}")
+            elif not more:
                 self._next(now)
             return
         if self.nav.state is NavState.ARRIVED:

@@ -166,6 +166,24 @@ def test_follow_walks_along_a_wall_at_the_standoff(y, side, heading, sign) -> No
     assert nav.state is NavState.ARRIVED and nav.status()["follow"]["walked"] == 2.0
 
 
+@pytest.mark.parametrize("y, active", [
+    (RADIUS + 0.01, True),  # inside the margin: the margin gives way
+    (RADIUS - 0.05, True),  # the map grew 0.05 m into the bare disc: led out
+    (0.5 * RADIUS + 0.01, True),  # the disc shrinks down to half the virtual radius
+    (0.5 * RADIUS - 0.01, False),  # closer still: FAILED, the robot stands
+])
+def test_a_body_the_map_grew_into_is_led_out_away_from_the_wall(y, active) -> None:
+    nav = ApfNavigator()
+    nav.set_goal(1.5, y + 0.3, 0.0)  # off the wall (its face at y = 0): up and along
+    out = nav.step((0.5, y, 0.0), RADIUS, view_of(WALL), 0.0)
+    assert (nav.state is NavState.ACTIVE) is active, nav.reason
+    if active:
+        assert out.twist is not None and out.heading is not None
+        assert math.sin(out.heading) > 0  # away from the wall (it lies at y < 0)
+    else:
+        assert "inside an obstacle" in nav.reason and out.twist == (0.0, 0.0, 0.0)
+
+
 def test_follow_without_a_structure_fails() -> None:
     nav = ApfNavigator()
     nav.set_follow(FollowCommand(1.0), 0.0)

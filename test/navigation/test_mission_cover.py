@@ -98,3 +98,30 @@ def test_a_cleanup_goal_not_covering_its_cell_in_time_is_given_up() -> None:
     task.after(view, DISC, 31.0)  # past CLEANUP_LIMIT
     assert task.skipped == 1
     assert task._cell is None or not np.array_equal(task._cell, first)
+
+
+def test_goals_failing_in_a_row_from_one_place_fail_the_task() -> None:
+    view = wall_view()
+    task = cover_task()
+    task.mark(np.array([0.0, 0.0]))
+    assert task.start(view, DISC, 0.0)
+    for k in range(3):
+        assert task.failed is None
+        task.nav.fail("start (0, 0) is inside an obstacle")
+        more = task.after(view, DISC, 1.0 + k)
+        task.mark(np.array([0.01 * (k + 1), 0.0]))  # within STUCK_DISTANCE
+    assert not more and task.failed is not None
+    assert task.failed.startswith("3 goals in a row failed from") and "inside" in task.failed
+    assert task.skipped == 2
+
+
+def test_failed_goals_from_different_places_are_skipped_not_fatal() -> None:
+    view = wall_view()
+    task = cover_task()
+    task.mark(np.array([0.0, 0.0]))
+    assert task.start(view, DISC, 0.0)
+    for k in range(4):
+        task.nav.fail("trapped")
+        assert task.after(view, DISC, 1.0 + k)
+        task.mark(np.array([0.1 * (k + 1), 0.0]))  # the body moved on between failures
+    assert task.failed is None and task.skipped == 4
