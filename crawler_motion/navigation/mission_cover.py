@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from crawler_motion.navigation.apf.coverage import clear_spots, reachable
 from crawler_motion.navigation.apf.field import FieldSettings, ObstacleField
 from crawler_motion.navigation.apf_navigator import ApfNavigator, planning_grid
 from crawler_motion.navigation.mission import Task
@@ -112,8 +113,7 @@ class CoverageTracker:
         free = centres[~obstacle]
         if not len(free):
             return free
-        rho = field.clearance(free)[0]
-        return free[rho + self.half >= field.settings.standoff]
+        return free[reachable(field, free, self.half)]
 
 
 def cover_field(view: TerrainView, points: np.ndarray, disc: float,
@@ -241,12 +241,7 @@ class CoverTask:
         navigator's own tolerance does, else the point nearest the cell (a tighter
         tolerance, at least `MIN_TOLERANCE`); None when no point is clear."""
         half, tol = self.tracker.half, self.nav.settings.goal_tolerance
-        grad = fld.clearance(cell)[1]
-        out = cell + grad * np.arange(0.0, half, half / 8)[:, None]  # away from the nearest
-        angles = np.linspace(0.0, 2 * math.pi, 12, endpoint=False)
-        ring = np.column_stack([np.cos(angles), np.sin(angles)])
-        pts = np.vstack([out] + [cell + f * half * ring for f in (0.25, 0.5, 0.75, 0.95)])
-        pts = pts[fld.clearance(pts)[0] >= fld.settings.standoff]
+        pts = clear_spots(fld, cell, half)
         if not len(pts):
             return None
         gap = np.hypot(*(pts - cell).T)

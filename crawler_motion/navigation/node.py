@@ -303,7 +303,8 @@ class NavigatorNode(Node):
         except CommandError as exc:
             self.get_logger().warning(str(exc), throttle_duration_sec=1.0)
             return
-        nav.reason = ""
+        if nav.state is NavState.ACTIVE:
+            nav.reason = ""  # a hold's reason (a failure's stays for the mission to report)
         disc = self.radius + nav.settings.margin
         ended = self.missions.before(self._pose, view, disc)
         goal = nav.goal

@@ -32,6 +32,7 @@ from crawler_motion.motion.walk_options import (
     stance_time_error,
 )
 from crawler_motion.motion.walk_params import follow_gait, gait_defaults
+from crawler_motion.planner.state import PlannerState
 
 #: Longest accepted ``gait_command`` text, in UTF-8 bytes.
 MAX_COMMAND_BYTES = 4096
@@ -50,7 +51,7 @@ TWIST_LIMIT_TOLERANCE = 1e-9
 #: A command shown in the messages about malformed JSON.
 _EXAMPLE = '{"command": "walk", "steps": 4}'
 
-__all__ = ["COMMAND_KEYS", "MAX_COMMAND_BYTES", "MAX_STEPS", "STAND_FIRST",
+__all__ = ["COMMAND_KEYS", "MAX_COMMAND_BYTES", "MAX_STEPS", "NOT_UP_STATES", "STAND_FIRST",
            "TWIST_BEYOND_LIMITS", "TWIST_IGNORED", "WALK_KEYS", "Command", "field_ranges",
            "is_zero_twist", "needs_stand", "parse_gait_command", "twist_limits",
            "twist_to_params"]
@@ -214,15 +215,22 @@ def parse_gait_command(text: str, cfg: Config) -> Command:
 #: How the refusals of a twist beyond what the walk can do begin (speed, yaw rate, parameters):
 #: the same twist is refused again, so a navigator sending it fails its goal with the reason.
 TWIST_BEYOND_LIMITS = ("cmd_vel speed", "cmd_vel yaw rate", "cannot walk from cmd_vel")
-#: How a refused twist's text begins, and how it ends when the robot must stand first (not up:
-#: IDLE or SITTING, or a posed body); such a twist is refused again at every twist too.
+#: How a refused twist's text begins, and how it ends when the robot must stand first.
 TWIST_IGNORED = "cmd_vel ignored"
 STAND_FIRST = "send stand first"
+#: States in which only ``stand`` gets the robot walking again (not HOLDING: an interrupted
+#: walk resumes by itself from the measured pose); a twist is refused again at every twist.
+NOT_UP_STATES = (PlannerState.IDLE, PlannerState.SITTING, PlannerState.ESTOP)
 
 
 def needs_stand(refusal: str) -> bool:
-    """Whether ``refusal`` refuses a twist until ``stand`` is sent."""
-    return refusal.startswith(TWIST_IGNORED) and refusal.endswith(STAND_FIRST)
+    """Whether ``refusal`` refuses every twist until ``stand`` is sent: the robot is not up
+    (`NOT_UP_STATES`) or its body is posed."""
+    if not (refusal.startswith(TWIST_IGNORED) and refusal.endswith(STAND_FIRST)):
+        return False
+    rest = refusal[len(TWIST_IGNORED):]
+    return rest.startswith(": the body is posed") or any(
+        rest.startswith(f" in state {state}:") for state in NOT_UP_STATES)
 
 
 def _resolved(base: WalkParams, cfg: Config) -> WalkParams:

@@ -3,8 +3,9 @@ a coverage route of a rectangular area of a map_server map, slice by slice with 
 potential field (`navigation.apf.coverage`).
 
 Prints the route as CSV ``x,y`` (metres, map frame) on stdout and one line on stderr: the
-covered share of the area's free cells, the overlap, the route length, the slices and any
-slice skipped or leg trapped. Exit 0: every slice done; 2: a slice skipped or a leg trapped
+covered share of the area's free cells the disc can reach (and of all its free cells), the
+overlap, the route length, the slices and clean-up legs, and any slice skipped or leg
+trapped. Exit 0: every slice done; 2: a slice skipped or a leg trapped
 (the route is still printed); 1: bad input, with a one-line error and no route.
 """
 
@@ -46,6 +47,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         return TRAPPED if res.problems else 0
     tail = "; ".join(res.problems) if res.problems else "every slice done"
-    print(f"covered {100 * res.share:.1f} % of the free cells; overlap {100 * res.overlap:.1f} "
-          f"%; length {res.length:.3f} m; {res.slices} slices; {tail}", file=sys.stderr)
+    print(f"covered {100 * res.share:.1f} % of the free cells the disc can reach "
+          f"({100 * res.share_free:.1f} % of all free cells); overlap "
+          f"{100 * res.overlap:.1f} %; length {res.length:.3f} m; {res.slices} slices, "
+          f"{res.cleanups} clean-up legs; {tail}", file=sys.stderr)
     return TRAPPED if res.problems else 0

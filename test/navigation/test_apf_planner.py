@@ -157,6 +157,24 @@ def test_coverage_of_a_2m_area_with_two_obstacles() -> None:
     assert min_clearance(fld, res.route) > 0
 
 
+def unseen_boxes(seed: int) -> tuple[tuple[float, float, float, float], ...]:
+    """1-3 boxes (centre x, y, half sizes [m]) at random in the 2 m x 2 m area: maps the
+    route's rules were not tuned on."""
+    rng = np.random.default_rng(seed)
+    return tuple((*rng.uniform(0.2, 1.8, 2), *rng.uniform(0.05, 0.25, 2))
+                 for _ in range(rng.integers(1, 4)))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_coverage_of_maps_it_has_not_seen_reaches_95_percent(seed: int) -> None:
+    grid = box_grid(unseen_boxes(seed), (-0.5, -0.5), (3.0, 3.0), RES)
+    fld = ObstacleField(grid, RADIUS, FieldSettings(standoff=0.03))
+    res = cover(fld, (0.0, 0.0, 2.0, 2.0), 0.3, RADIUS)
+    assert res.share >= 0.95, (unseen_boxes(seed), res.share, res.problems)
+    assert res.share_free <= res.share  # the reachable cells are among the free ones
+    assert min_clearance(fld, res.route) > 0
+
+
 @pytest.mark.parametrize(("area", "spacing"), [((0, 0, 0, 2), 0.3), ((0, 0, 2, 2), 0.0),
                                                 ((0, 0, 9, 2), 0.3), ((0, 0, 2, math.nan), 0.3)])
 def test_bad_coverage_requests(area: tuple, spacing: float) -> None:

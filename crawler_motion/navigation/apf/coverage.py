@@ -7,9 +7,16 @@ from the end of the previous slice to the start of this one and then along it; o
 slice are passed at the stand-off distance. *Rules:* a slice end where the disc is not ρ_o
 clear of the obstacles moves along the slice towards the area's inside to the first point
 where it is; a slice with no such point is skipped (and reported); a leg that ends trapped
-keeps its path, is reported, and the route goes on from where it stopped. Covered: the free
-cells of the area within ``footprint`` of the route (the sensor or tool footprint, a disc);
-overlap: the share of the covered cells covered by more than one slice.
+keeps its path, is reported, and the route goes on from where it stopped. Then *clean-up
+legs* (rule chosen, as a mission's cover task): from the route's end to a clear point within
+the footprint of the nearest reachable cell not yet covered (`clear_spots`), until none is
+left or `MAX_CLEANUPS` legs were planned; a cell no leg reaches is given up.
+
+Reachable (`reachable`): a free cell within ``footprint`` of a point where the disc is ρ_o
+clear (searched among points half a cell apart: a gap narrower than the disc reaches none).
+Covered: the cells within ``footprint`` of the route (the sensor or tool footprint, a disc);
+the share is of the reachable cells (``share_free``: of every free cell); overlap: the share
+of the covered cells covered by more than one leg.
 """
 
 from __future__ import annotations
@@ -23,6 +30,56 @@ from crawler_motion.errors import CommandError
 from crawler_motion.navigation.apf.field import ObstacleField
 from crawler_motion.navigation.apf.planner import ApfMethod, PlanSettings, densify, plan
 
+#: Most clean-up legs of one route.
+MAX_CLEANUPS = 60
+
+
+def _lattice(fld: ObstacleField, centre: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """Points ``(k, 2)`` half a cell apart, aligned to the grid, within ``half`` (x, y [m])
+    of ``centre``."""
+    step = fld.grid.resolution / 2
+    lo = np.floor((centre - half - fld.grid.origin) / step) * step + fld.grid.origin
+    xs = np.arange(lo[0], centre[0] + half[0] + 1e-9, step)
+    ys = np.arange(lo[1], centre[1] + half[1] + 1e-9, step)
+    gx, gy = np.meshgrid(xs, ys)
+    return np.column_stack([gx.ravel(), gy.ravel()])
+
+
+def reachable(fld: ObstacleField, cells: np.ndarray, footprint: float) -> np.ndarray:
+    """Which cell centres ``(k, 2)`` lie within ``footprint`` [m] of a point where the disc is
+    ρ_o clear (the points half a cell apart, as `clear_spots`): at once where ρ(cell) ≥ ρ_o,
+    never where ρ(cell) + footprint < ρ_o (ρ grows at most 1 m/m), searched between."""
+    if not len(cells):
+        return np.zeros(0, dtype=bool)
+    rho = fld.clearance(cells)[0]
+    out = rho >= fld.settings.standoff
+    band = ~out & (rho + footprint >= fld.settings.standoff)
+    if band.any():
+        inner = cells[band]
+        mid, half = (inner.max(axis=0) + inner.min(axis=0)) / 2, np.ptp(inner, axis=0) / 2
+        pts = _lattice(fld, mid, half + footprint)
+        pts = pts[fld.clearance(pts)[0] >= fld.settings.standoff]
+        found = np.zeros(len(inner), dtype=bool)
+        for k in range(0, len(pts), 512):
+            d = np.hypot(*(inner[:, None, :] - pts[None, k:k + 512, :]).transpose(2, 0, 1))
+            found |= (d <= footprint).any(axis=1)
+        out[band] = found
+    return out
+
+
+def clear_spots(fld: ObstacleField, cell: np.ndarray, footprint: float) -> np.ndarray:
+    """Points ``(k, 2)`` within ``footprint`` [m] of ``cell`` where the disc is ρ_o clear:
+    along the clearance's gradient (away from the nearest obstacle cell), on rings round the
+    cell and half a cell apart (as `reachable`); empty when none is."""
+    grad = fld.clearance(cell)[1]
+    out = cell + grad * np.arange(0.0, footprint, footprint / 8)[:, None]
+    angles = np.linspace(0.0, 2 * math.pi, 12, endpoint=False)
+    ring = np.column_stack([np.cos(angles), np.sin(angles)])
+    near = _lattice(fld, cell, np.full(2, footprint))
+    near = near[np.hypot(*(near - cell).T) <= footprint]
+    pts = np.vstack([out, near] + [cell + f * footprint * ring for f in (0.25, 0.5, 0.75, 0.95)])
+    return pts[fld.clearance(pts)[0] >= fld.settings.standoff]
+
 
 @dataclass
 class CoverageResult:
@@ -30,11 +87,13 @@ class CoverageResult:
     route length [m], and what went wrong on the way (skipped slices, trapped legs)."""
 
     route: np.ndarray
-    share: float
+    share: float  # of the reachable free cells
     overlap: float
     length: float
     slices: int
     problems: list[str] = field(default_factory=list)
+    share_free: float = 0.0  # of every free cell of the area
+    cleanups: int = 0  # clean-up legs planned
 
 
 def _check_area(fld: ObstacleField, area: tuple[float, float, float, float], spacing: float,
@@ -107,9 +166,38 @@ def cover(fld: ObstacleField, area: tuple[float, float, float, float], spacing: 
         route.append(leg)
     if not route:
         raise CommandError("no slice of the area has a point where the disc is ρ_o clear")
-    path = np.vstack(route)
-    _, count = covered_cells(fld, legs, area, footprint)
+    slices = len(legs)
+    cleanups = _cleanup(fld, legs, area, footprint, settings)
+    path = np.vstack(legs)
+    cells, count = covered_cells(fld, legs, area, footprint)
+    reach = reachable(fld, cells, footprint)
     covered = int((count > 0).sum())
-    return CoverageResult(path, covered / max(len(count), 1),
+    return CoverageResult(path, float((count[reach] > 0).mean()) if reach.any() else 0.0,
                           float((count > 1).sum()) / max(covered, 1),
-                          float(np.hypot(*np.diff(path, axis=0).T).sum()), len(legs), problems)
+                          float(np.hypot(*np.diff(path, axis=0).T).sum()), slices, problems,
+                          covered / max(len(count), 1), cleanups)
+
+
+def _cleanup(fld: ObstacleField, legs: list[np.ndarray], area: tuple[float, ...],
+             footprint: float, settings: PlanSettings | None) -> int:
+    """Append clean-up legs to ``legs`` (see the module); the number appended."""
+    cells, count = covered_cells(fld, legs, area, footprint)
+    left = cells[reachable(fld, cells, footprint) & (count == 0)]
+    done = 0
+    while len(left) and done < MAX_CLEANUPS:
+        end = legs[-1][-1]
+        cell = left[int(np.argmin(np.hypot(*(left - end).T)))]
+        spots = clear_spots(fld, cell, footprint)
+        res = None
+        if len(spots):
+            spot = spots[int(np.argmin(np.hypot(*(spots - end).T)))]
+            res = plan(fld, end, spot, ApfMethod.APF_VIRTUAL, settings)
+        if res is None or not res.reached:
+            left = left[np.any(left != cell, axis=1)]  # given up
+            continue
+        legs.append(res.path)
+        done += 1
+        hit = np.hypot(*(densify(res.path, fld.grid.resolution / 2)[None, :, :]
+                         - left[:, None, :]).transpose(2, 0, 1)).min(axis=1) <= footprint
+        left = left[~hit]
+    return done
