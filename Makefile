@@ -32,6 +32,7 @@ bench: $(STAMP)
 	$(VENV)/bin/crawler-motion bench
 	$(VENV)/bin/crawler-motion smoothness --out plots
 	$(VENV)/bin/crawler-motion bench --e2e
+	$(VENV)/bin/crawler-motion bench-mission
 
 # The whole stack walking for 10 minutes on the cross-process bus; exit 1 if anything was lost.
 soak: $(STAMP)

@@ -80,6 +80,7 @@ class CoverageTracker:
         dj, di = np.meshgrid(np.arange(-r, r + 1), np.arange(-r, r + 1))
         self._offsets = np.column_stack([dj.ravel(), di.ravel()])
         self.cells: set[tuple[int, int]] = set()
+        self._reach: tuple[tuple, np.ndarray] | None = None  # the last `reachable`, its key
 
     def mark(self, xy: np.ndarray) -> None:
         """Mark the cells whose centre lies within half the tool width of ``xy`` [m]."""
@@ -113,7 +114,10 @@ class CoverageTracker:
         free = centres[~obstacle]
         if not len(free):
             return free
-        return free[reachable(field, free, self.half)]
+        key = (free.tobytes(), field.cells.tobytes(), field.radius, field.settings.standoff)
+        if self._reach is None or self._reach[0] != key:  # the map's obstacles changed
+            self._reach = (key, free[reachable(field, free, self.half)])
+        return self._reach[1]
 
 
 def cover_field(view: TerrainView, points: np.ndarray, disc: float,

@@ -218,9 +218,10 @@ TWIST_BEYOND_LIMITS = ("cmd_vel speed", "cmd_vel yaw rate", "cannot walk from cm
 #: How a refused twist's text begins, and how it ends when the robot must stand first.
 TWIST_IGNORED = "cmd_vel ignored"
 STAND_FIRST = "send stand first"
-#: States in which only ``stand`` gets the robot walking again (not HOLDING: an interrupted
-#: walk resumes by itself from the measured pose); a twist is refused again at every twist.
-NOT_UP_STATES = (PlannerState.IDLE, PlannerState.SITTING, PlannerState.ESTOP)
+#: States in which only ``stand`` gets the robot walking again (HOLDING says so only when no
+#: resume from the measured pose is due); a twist is refused again at every twist.
+NOT_UP_STATES = (PlannerState.IDLE, PlannerState.SITTING, PlannerState.HOLDING,
+                 PlannerState.ESTOP)
 
 
 def needs_stand(refusal: str) -> bool:

@@ -215,7 +215,7 @@ class PlannerCore(CoreReadouts):
         new parameters at the next slot; + zero: stop. A zero twist otherwise does nothing.
         """
         now = self._clock(now)
-        self.requests.twist(vx, vy, wz, self._base(), now)
+        self.requests.twist(vx, vy, wz, self._base(), now, self.resumer.active)
 
     # ---------------------------------------------------------------- output
     def tick(self, now: float) -> JointTarget | None:

@@ -15,7 +15,7 @@ from crawler_motion.planner.commands import (
     twist_to_params,
 )
 from crawler_motion.planner.context import PlannerContext
-from crawler_motion.planner.state import ESTOP, MOVING, STANDING, STOPPING, WALKING
+from crawler_motion.planner.state import ESTOP, HOLDING, MOVING, STANDING, STOPPING, WALKING
 from crawler_motion.planner.upfront import UpfrontCheck
 from crawler_motion.planner.walk import WalkController
 
@@ -114,9 +114,10 @@ class WalkRequests:
         ctx.journal.event("info", f"walk parameters change at the next slot boundary "
                                   f"({cmd.steps or 'until stopped'} steps)")
 
-    def twist(self, vx: float, vy: float, wz: float, standing_base: WalkParams, now: float
-              ) -> None:
-        """A ``cmd_vel`` twist (m/s, m/s, rad/s) at ``now`` [s]; see `PlannerCore.on_twist`."""
+    def twist(self, vx: float, vy: float, wz: float, standing_base: WalkParams, now: float,
+              resuming: bool = False) -> None:
+        """A ``cmd_vel`` twist (m/s, m/s, rad/s) at ``now`` [s]; see `PlannerCore.on_twist`
+        (``resuming``: a resume from the measured pose is due or runs)."""
         ctx, ctl = self.ctx, self.walk_ctl
         for name, value in (("linear.x", vx), ("linear.y", vy), ("angular.z", wz)):
             if finite_float(value) is None:
@@ -140,6 +141,8 @@ class WalkRequests:
         if ctx.state != STANDING:
             hint = ("send stop first" if ctx.state == WALKING
                     else "wait for STANDING" if ctx.state in (STOPPING, MOVING)
+                    else "wait for the resume from the measured pose"
+                    if resuming and ctx.state == HOLDING
                     else STAND_FIRST)
             ctx.journal.refuse(f"{TWIST_IGNORED} in state {ctx.state}: {hint}", now)
         if ctx.paused:

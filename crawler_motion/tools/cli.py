@@ -204,6 +204,8 @@ _EXTRA_COMMANDS: tuple[tuple[str, str, str], ...] = (
      "a recording as PNG plots and an index.html"),
     ("view", "crawler_motion.recording.view",
      "serve the running stack live to Foxglove (WebSocket)"),
+    ("bench-mission", "crawler_motion.tools.bench_mission",
+     "the navigator's mission overhead: cycle time and a cover slice's re-plan"),
     ("mission", "crawler_motion.tools.mission",
      "send a mission file (goto, follow, cover, home) to the navigator and follow it"),
     ("sim", "crawler_motion.tools.bringup",

@@ -39,8 +39,9 @@ def refusal_of(vx: float, wz: float = 0.0, gait: str = "diagonal_sway") -> str:
     ([status(3, "cmd_vel ignored in state SITTING: send stand first")], True),
     ([status(3, "walk refused in state IDLE: send stand first")], False),  # not a twist
     ([status(3, "cmd_vel ignored in state ESTOP: send stand first")], True),
-    ([status(3, "cmd_vel ignored in state HOLDING: send stand first")],
-     False),  # an interrupted walk resumes by itself from the measured pose
+    ([status(3, "cmd_vel ignored in state HOLDING: send stand first")], True),  # held
+    ([status(3, "cmd_vel ignored in state HOLDING: wait for the resume from the measured "
+                "pose")], False),  # an interruption: it resumes by itself
     ([status(3, "cmd_vel ignored: the body is posed (x 0.01 m); walks start from the neutral "
                 "pose: send stand first")], True),
     ([status(3, "paused: motor manager fault")], False),

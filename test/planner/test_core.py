@@ -831,3 +831,14 @@ def test_a_twist_the_robot_must_stand_for_says_so(setup):
     with pytest.raises(CommandError) as info:
         clock.core.on_twist(0.05, 0.0, 0.0, clock.t)
     assert needs_stand(str(info.value)) is (setup is _idle), str(info.value)
+
+
+@pytest.mark.parametrize("resuming, needs", [(False, True), (True, False)])
+def test_a_twist_while_holding_needs_stand_unless_a_resume_is_due(resuming, needs):
+    """HOLDING says 'send stand first' only when no resume from the measured pose is due
+    (an interruption resumes by itself; a walk that could not stop waits for stand)."""
+    clock = standing()
+    clock.core.ctx.state = HOLDING
+    with pytest.raises(CommandError) as info:
+        clock.core.requests.twist(0.05, 0.0, 0.0, clock.core._base(), clock.t, resuming)
+    assert needs_stand(str(info.value)) is needs, str(info.value)

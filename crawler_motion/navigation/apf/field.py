@@ -113,11 +113,16 @@ class ObstacleField:
         self.grid, self.radius, self.settings = grid, float(radius), settings
         rows, cols = np.nonzero(boundary_cells(grid.obstacle))
         self.cells = grid.origin + (np.column_stack((cols, rows)) + 0.5) * grid.resolution
+        self._cx, self._cy = self.cells[:, 0].copy(), self.cells[:, 1].copy()
+        self._last: tuple[tuple[float, float], float, tuple[float, float]] | None = None
 
     def clearance(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """ρ ``(...)`` [m] and its gradient ``(..., 2)`` at the points ``(..., 2)``; +inf and 0
         without obstacle cells."""
         p = np.asarray(p, dtype=float)
+        if p.shape == (2,) and len(self.cells):
+            rho, gx, gy = self._one(float(p[0]), float(p[1]))
+            return np.asarray(rho), np.array([gx, gy])
         flat = p.reshape(-1, 2)
         rho = np.full(len(flat), math.inf)
         grad = np.zeros_like(flat)
@@ -135,6 +140,26 @@ class ObstacleField:
                 rho[k:k + len(q)] = near
                 grad[k:k + len(q)] = out[rows, nearest] / np.where(near > 0, near, 1.0)[:, None]
         return (rho - self.radius).reshape(p.shape[:-1]), grad.reshape(p.shape)
+
+    def _one(self, px: float, py: float) -> tuple[float, float, float]:
+        """`clearance` of one point (the planner's step: the same arithmetic on 1-D arrays,
+        the last point remembered, as a step's check and the next step's field share it)."""
+        last = self._last
+        if last is not None and last[0] == (px, py):
+            return last[1], *last[2]
+        half = self.grid.resolution / 2
+        dx, dy = px - self._cx, py - self._cy
+        ox = np.maximum(np.abs(dx) - half, 0.0)
+        oy = np.maximum(np.abs(dy) - half, 0.0)
+        d2 = ox * ox + oy * oy
+        k = int(np.argmin(d2))
+        near = math.sqrt(float(d2[k]))
+        scale = near if near > 0 else 1.0
+        gx = float(ox[k]) * float(np.sign(dx[k])) / scale
+        gy = float(oy[k]) * float(np.sign(dy[k])) / scale
+        rho = near - self.radius
+        self._last = ((px, py), rho, (gx, gy))
+        return rho, gx, gy
 
     def obstacle_potential(self, rho: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Repulsion + obstacle attraction as a function of ρ: value and dU/dρ."""
