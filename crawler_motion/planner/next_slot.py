@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 from crawler_motion.errors import GaitError, KinematicsError, TrajectoryError
@@ -18,7 +19,11 @@ def plan_next(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | Non
               stopping: bool) -> tuple[Slot | None, GaitSequencer | None, str | None]:
     """Plan and check the next slot on ``trial`` (a copy of the walk's sequencer).
 
-    Returns ``(slot, trial, None)`` or ``(None, None, reason)``; None slot: nothing left."""
+    A slot that does not stop is taken only if the first slot of a stop after it passes the
+    check too (*rule*: a walk never enters a slot it cannot stop from; without it a stance
+    foot could end a slot at its reach with the velocity out, and neither the next slot nor
+    a stop could follow: HOLDING). Returns ``(slot, trial, None)`` or ``(None, None,
+    reason)``; None slot: nothing left."""
     try:
         if params is not None:
             trial.set_params(params)
@@ -27,6 +32,13 @@ def plan_next(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | Non
             check_trajectories(robot, slot.legs, f"the next ({slot.kind}) slot")
     except (GaitError, KinematicsError, TrajectoryError) as exc:
         return None, None, str(exc)
+    if slot is not None and not stopping:
+        try:
+            after = copy.copy(trial).next_slot(stopping=True)
+            if after is not None:
+                check_trajectories(robot, after.legs, "the stop after it")
+        except (GaitError, KinematicsError, TrajectoryError) as exc:
+            return None, None, f"the next ({slot.kind}) slot could not be stopped from: {exc}"
     return slot, trial, None
 
 
