@@ -176,15 +176,14 @@ class CoverTask:
             self._covered_at = now
             self.covered = self.tracker.share(view, self.task.polygon, self._field(view, disc))
         cell = self._cell
+        done = cell is not None and bool(self.tracker.covered(cell[None, :])[0])
         if self.nav.state is NavState.ACTIVE:
-            if cell is None or not (self.tracker.covered(cell[None, :])[0]
-                                    or now - self._sent > CLEANUP_LIMIT):
+            if cell is None or not (done or now - self._sent > CLEANUP_LIMIT):
                 return True
-            self.nav.cancel("clean-up cell covered")
+            self.nav.cancel("clean-up cell covered" if done else "clean-up goal given up")
         if self.nav.state is NavState.FAILED and self._stuck(self.nav.reason):
             return False
-        if self.nav.state is NavState.FAILED or (
-                cell is not None and not self.tracker.covered(cell[None, :])[0]):
+        if self.nav.state is NavState.FAILED or (cell is not None and not done):
             self.skipped += 1
             if cell is not None:
                 self._given_up.add(_key(cell, view.resolution))

@@ -31,6 +31,7 @@ from crawler_motion.navigation.apf_navigator import ApfNavigator
 from crawler_motion.navigation.mission import parse_mission
 from crawler_motion.navigation.mission_runner import MissionRunner, MissionState
 from crawler_motion.navigation.navigator import NavState, TerrainView
+from crawler_motion.tools.live_cases import BOXES as HARBOUR_BOXES
 
 #: Targets (issue "missions"): navigator cycle median [s] and a cover slice's re-plan [s].
 CYCLE_TARGET = 0.002
@@ -39,7 +40,7 @@ REPLAN_TARGET = 0.2
 #: y1 [m]) and its cover task.
 ORIGIN = (-0.5, -3.0)
 SIZE, RES = 4.0, 0.05
-BOXES = ((-0.4, 3.0, 0.475, 0.675), (1.25, 1.55, -1.75, -1.45))
+BOXES = HARBOUR_BOXES["harbour"]
 COVER = "tasks: [{cover: {area: [0.4, -2.6, 2.4, -0.6], spacing: 0.15}}]"
 #: Virtual radius of the standing robot [m], the cycle period [s] and the cycles to time.
 RADIUS, PERIOD = 0.215, 0.1
