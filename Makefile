@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-all lint bench fuzz soak plots mission clean calibration-figures
+.PHONY: demo test test-all lint bench fuzz soak soak-mission plots mission clean calibration-figures
 
 $(STAMP): requirements.txt setup.py
 	$(PYTHON) -m venv $(VENV)
@@ -38,9 +38,17 @@ bench: $(STAMP)
 soak: $(STAMP)
 	$(VENV)/bin/crawler-motion soak --rate 200 --duration 600
 
-# The shipped harbour mission on the real-time stack (about 10 minutes): figures printed.
+# Missions for 30 minutes on the simulated stack with faults injected (kills, stops, CAN
+# garbage, e-stop, future odometry, goal floods), each checked; the report on stdout.
+soak-mission: $(STAMP)
+	$(VENV)/bin/crawler-motion soak --mission config/missions/soak.yaml --duration 1800
+
+# The shipped harbour mission on the real-time stack (about 17 minutes): figures printed,
+# recorded to mission.mcap and drawn in mission-report/.
 mission: $(STAMP)
-	$(VENV)/bin/crawler-motion mission config/missions/harbour.yaml --sim harbour
+	$(VENV)/bin/crawler-motion mission config/missions/harbour.yaml --sim harbour \
+		--record mission.mcap; s=$$?; \
+		$(VENV)/bin/crawler-motion report mission.mcap -o mission-report; exit $$s
 
 plots: $(STAMP)
 	$(VENV)/bin/crawler-motion plot --out plots

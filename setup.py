@@ -36,7 +36,9 @@ setup(
         "foxglove-sdk>=0.30",
     ],
     extras_require={
-        "test": ["pytest>=7", "hypothesis>=6.80", "ruff>=0.5", "websockets>=12"],
+        # rosbags: the soak opens its recording with an independent reader
+        "test": ["pytest>=7", "hypothesis>=6.80", "ruff>=0.5", "websockets>=12",
+                 "rosbags>=0.10"],
         # `crawler-motion tune-smooth` only
         "tune": ["scipy>=1.10"],
     },

@@ -3,7 +3,8 @@
 `Supervisor.start` starts the members stage by stage, a stage once the stages before it are
 ready (every member's ROS nodes on the graph, as the ``ready`` callable sees them), each process
 logging to ``<logs>/<name>.log``, and reports each with ``on_ready(name, pid, seconds)``.
-`Supervisor.exited` names the first member that ended.
+`Supervisor.exited` names the first member that ended; `Supervisor.restart` starts one again
+(a soak's fault injection), `Supervisor.send` signals one.
 `Supervisor.stop` sends SIGINT to every process still running, the last started first (the
 navigator before the controller, the controller before the simulated motors), waits for each,
 and SIGKILLs what is left after a timeout, so nothing stays behind.
@@ -11,12 +12,14 @@ and SIGKILLs what is left after a timeout, so nothing stays behind.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import signal
 import subprocess
+import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -51,6 +54,7 @@ class Supervisor:
                  ready: Callable[[Sequence[str]], bool]) -> None:
         self.logs, self.env, self.ready = Path(logs), dict(env), ready
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self.members: dict[str, Member] = {}
 
     def log_path(self, name: str) -> Path:
         """The log file of member ``name``."""
@@ -85,8 +89,27 @@ class Supervisor:
                     time.sleep(POLL)
             time.sleep(max((m.settle for m in members if m.stage == stage), default=0.0))
 
-    def _launch(self, member: Member) -> None:
-        with open(self.log_path(member.name), "wb") as log:
+    def restart(self, name: str, timeout: float) -> float:
+        """Start member ``name`` again (after it ended) with its command line, its log
+        appended to; wait until its nodes are seen (`BringUpError` after ``timeout`` [s]).
+        Returns the time it took [s]."""
+        member = self.members[name]
+        if self.procs[name].poll() is None:
+            raise BringUpError(name, "still running: stop it before a restart")
+        began = time.monotonic()
+        self._launch(member, mode="ab")
+        while not self.ready(member.nodes):
+            self._check_alive(member, began, timeout)
+            time.sleep(POLL)
+        return time.monotonic() - began
+
+    def send(self, name: str, sig: int) -> None:
+        """Send ``sig`` to member ``name`` (its process group), if it still runs."""
+        _signal(self.procs[name], sig)
+
+    def _launch(self, member: Member, mode: str = "wb") -> None:
+        self.members[member.name] = member
+        with open(self.log_path(member.name), mode) as log:
             self.procs[member.name] = subprocess.Popen(
                 list(member.command), stdout=log, stderr=subprocess.STDOUT, env=self.env,
                 start_new_session=True, preexec_fn=functools.partial(_prepare_child,
@@ -140,6 +163,21 @@ class Supervisor:
                 proc.wait()
                 killed.append(name)
         return killed
+
+
+@contextlib.contextmanager
+def interrupts_held() -> Iterator[None]:
+    """Ctrl-C (SIGINT) ignored inside the block, when called from the main thread: stopping
+    the processes must not be cut short by a second Ctrl-C (that would orphan some). The
+    previous handler is restored after."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _prepare_child(nice: int) -> None:

@@ -21,7 +21,6 @@ from __future__ import annotations
 import sys
 from collections import Counter
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -32,12 +31,13 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2, PointField
 
 from crawler_motion.mapping.clouds import read_float32
-from crawler_motion.mapping.mapper import Pose, SkipReason, TerrainMapper
+from crawler_motion.mapping.mapper import SkipReason, TerrainMapper
 from crawler_motion.mapping.odometry import OdometryVerdict
+from crawler_motion.mapping.odometry_pose import odometry_pose, stamp_seconds
 from crawler_motion.mapping.parameters import mapper_parameters, mapper_settings
 from crawler_motion.mapping.points import Mount
 from crawler_motion.model.config import load_config, load_scanner
-from crawler_motion.model.rotations import quaternion_matrix
+from crawler_motion.runtime.callback_guard import CallbackGuard
 from crawler_motion.runtime.log import Throttle
 from crawler_motion.runtime.ros_diagnostics import counters_array
 from crawler_motion.runtime.ros_main import run_node
@@ -50,11 +50,6 @@ FIELDS = ("x", "y", "z", "variance")
 #: Period of the ``/diagnostics`` status [s].
 DIAGNOSTICS_PERIOD = 1.0
 HARDWARE_ID = "crawler_mapper"
-
-
-def stamp_seconds(stamp: Any) -> float:
-    """A builtin_interfaces/Time as seconds."""
-    return stamp.sec + stamp.nanosec * 1e-9
 
 
 def read_xyz(msg: PointCloud2) -> np.ndarray | None:
@@ -81,8 +76,10 @@ class TerrainMapperNode(Node):
         self.frame, self.scanner_frame = values["map_frame"], values["scanner_frame"]
         self._map = self.create_publisher(OccupancyGrid, "terrain_map", 2)
         self._heights = self.create_publisher(PointCloud2, "terrain_heights", 2)
-        self.create_subscription(PointCloud2, "scan", self._on_scan, qos_profile_sensor_data)
-        self.create_subscription(Odometry, "odom", self._on_odom, 20)
+        self.guard = CallbackGuard(self.get_logger(), alive=self.context.ok)
+        self.create_subscription(PointCloud2, "scan", self.guard.wrap("scan", self._on_scan),
+                                 qos_profile_sensor_data)
+        self.create_subscription(Odometry, "odom", self.guard.wrap("odom", self._on_odom), 20)
         self._throttle = Throttle(LOG_PERIOD)  # warnings by reason
         self.create_timer(1.0 / values["publish_rate"], self._publish)
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -97,15 +94,9 @@ class TerrainMapperNode(Node):
                 f"scan skipped: {reason.value} ({self.mapper.skipped[reason]} so far)")
 
     def _on_odom(self, msg: Odometry) -> None:
-        p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        try:
-            rot = quaternion_matrix(np.array([q.w, q.x, q.y, q.z]))
-        except ValueError:
-            rot = np.full((3, 3), np.nan)
         before = Counter(self.mapper.skipped)
         now = self.get_clock().now().nanoseconds * 1e-9
-        verdict = self.mapper.add_odometry(Pose(stamp_seconds(msg.header.stamp), rot,
-                                                np.array([p.x, p.y, p.z])), now)
+        verdict = self.mapper.add_odometry(odometry_pose(msg), now)
         if verdict is OdometryVerdict.RESET:
             self.get_logger().error(f"odom: {verdict.value}")
         elif verdict is not None and self._throttle.allow(verdict):
@@ -139,6 +130,7 @@ class TerrainMapperNode(Node):
         now = self.get_clock().now().nanoseconds * 1e-9
         age = "none" if m.last_fused_stamp is None else f"{now - m.last_fused_stamp:.3f}"
         values = {"scans_fused": m.scans_fused, "scans_held": m.held, "map_age": age,
+                  "callback_errors": self.guard.total,
                   **{f"skipped_{r.name}": m.skipped[r] for r in SkipReason},
                   **{f"odom_{v.name}": m.odometry_refused[v] for v in OdometryVerdict
                      if v is not OdometryVerdict.ACCEPT}}

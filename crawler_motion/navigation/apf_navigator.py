@@ -10,9 +10,10 @@ a margin. The robot is the planner's disc of the virtual radius plus ``margin``.
 - **goto** (`set_goal`): `plan` with virtual goals from the body to the goal, through the
   virtual goals still in use (those of the last plan the look-ahead point has not passed, and
   still clear), so that a detour once found is kept while the map grows instead of
-  re-discovered from every new pose. Trapped, or a goal or body inside an obstacle (a body
-  the map grew into is led out first: `ApfNavigator._field`): FAILED with the planner's
-  reason, a zero twist (the planner stands).
+  re-discovered from every new pose. A goal or body inside an obstacle (a body the map grew
+  into is led out first: `ApfNavigator._field`): FAILED with the planner's reason, a zero
+  twist (the planner stands). Trapped: the robot stands and the plan is made again on every
+  map for `TRAP_PATIENCE`; still trapped then: FAILED with the planner's reason.
 - **follow** (`set_follow`): `follow` walks along the nearest structure (on the right or the
   left) at the stand-off distance; ARRIVED once the body has walked the length (odometry).
 
@@ -54,8 +55,16 @@ SQUEEZE = 0.005
 #: Share of the virtual radius (the farthest foot) the disc may shrink to, to lead a body out
 #: of obstacle cells the map grew into it: the inner half holds the hull and the hips.
 ESCAPE_SHARE = 0.5
+#: Most cells a plan's grid may hold (8 MB of flags; a 10 m goal on the 4 m map at 0.05 m
+#: takes ~0.1 M): more means the body is far from its map, and the plan is refused.
+PLAN_CELLS = 1_000_000
 #: Virtual goals of successive plans closer than this count as one [m].
 SAME_GOAL = 0.15
+#: A trapped plan is made again on the next maps for this long [s], the robot standing,
+#: before the goal fails: the first scans of a structure map part of it, and a partial map
+#: can trap a plan that the fuller one does not (a U seen from its mouth, 1 real-time run
+#: in 4 before).
+TRAP_PATIENCE = 3.0
 
 
 class Mode(Enum):
@@ -113,12 +122,19 @@ class FollowCommand:
 
 def planning_grid(view: TerrainView, points: np.ndarray, margin: float) -> Grid:
     """The map's obstacle cells as a `Grid`, padded with passable cells to hold ``points``
-    ``(k, 2)`` [m] with ``margin`` [m] around them."""
+    ``(k, 2)`` [m] with ``margin`` [m] around them; `CommandError` beyond `PLAN_CELLS` (the
+    body far from the map it was given: a stale map or odometry that jumped)."""
     res = view.resolution
     rows, cols = view.obstacle.shape
     top = view.origin + np.array([cols, rows]) * res
     lo = np.minimum(points.min(axis=0) - margin, view.origin)
     hi = np.maximum(points.max(axis=0) + margin, top)
+    cells = float(np.prod(np.ceil((hi - lo) / res)))
+    if not cells <= PLAN_CELLS:
+        raise CommandError(f"planning from ({points[0, 0]:.6g}, {points[0, 1]:.6g}) on the map "
+                           f"at ({view.origin[0]:.6g}, {view.origin[1]:.6g}) would take "
+                           f"{cells:.3g} cells, beyond the budget of {PLAN_CELLS:g}: the body "
+                           "is far from its map")
     before = np.ceil((view.origin - lo) / res - 1e-9).astype(int)
     after = np.ceil((hi - top) / res - 1e-9).astype(int)
     obstacle = np.pad(view.obstacle, ((before[1], after[1]), (before[0], after[0])))
@@ -152,12 +168,14 @@ class ApfNavigator:
     disc: float = 0.0  # the field's disc radius of the last cycle (virtual radius + margin) [m]
     _since: float = 0.0
     _last: np.ndarray | None = None
+    _trapped_at: float | None = None  # since when the plans are trapped [s]
     tolerance: float = NavigatorSettings.goal_tolerance  # the goal's, of set_goal [m]
 
     def _start(self, mode: Mode, now: float) -> None:
         self.mode, self.state, self.reason, self._since = mode, NavState.ACTIVE, "", now
         self.virtual_goals, self.distinct, self.walked, self._last = [], [], 0.0, None
         self.heading, self.distance, self.path_length = None, None, None
+        self._trapped_at = None
 
     def set_goal(self, x: float, y: float, now: float, tolerance: float | None = None
                  ) -> None:
@@ -274,6 +292,16 @@ class ApfNavigator:
                                 "structure")
         return None
 
+    def _trapped(self, reason: str, now: float) -> Output:
+        """A trapped plan: stand and plan again on the next maps, FAILED after
+        `TRAP_PATIENCE`."""
+        if self._trapped_at is None:
+            self._trapped_at = now
+        if now - self._trapped_at >= TRAP_PATIENCE:
+            return self._finish(NavState.FAILED, f"trapped: {reason}")
+        self.reason = f"trapped, planning again for up to {TRAP_PATIENCE:g} s: {reason}"
+        return Output(twist=(0.0, 0.0, 0.0), changed=True)
+
     def step(self, pose: tuple[float, float, float], radius: float, view: TerrainView,
              now: float) -> Output:
         """One cycle from the body pose (x, y [m], yaw [rad]), the virtual radius [m] and
@@ -289,9 +317,9 @@ class ApfNavigator:
             return self._finish(NavState.FAILED, f"not arrived within {s.timeout:g} s")
         points = xy[None, :] if self.goal is None else np.vstack((xy, self.goal))
         margin = radius + s.margin + 2.0 * s.standoff + 0.5
-        fld = self._field(planning_grid(view, points, margin), xy, radius)
-        self.disc = fld.radius
         try:
+            fld = self._field(planning_grid(view, points, margin), xy, radius)
+            self.disc = fld.radius
             if self.mode is Mode.GOTO:
                 res = self._goto(fld, xy)
             else:
@@ -303,7 +331,8 @@ class ApfNavigator:
             return self._finish(NavState.FAILED, str(exc))
         self.path_length = round(res.length, 3)
         if not res.reached:
-            return self._finish(NavState.FAILED, f"trapped: {res.reason}")
+            return self._trapped(res.reason, now)
+        self._trapped_at, self.reason = None, ""
         aim = carrot(res.raw, s.path_lookahead) - xy
         self.heading = math.atan2(aim[1], aim[0])
         slow = 1.0 if self.mode is Mode.FOLLOW else min(1.0, self.distance / s.slow_radius)

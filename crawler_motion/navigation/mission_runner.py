@@ -4,7 +4,8 @@
 `MissionRunner.after` after it; together they walk the tasks in order:
 
 - ``goto`` / ``home``: a goal for the navigator (home: the body's position when the mission
-  started); done when it arrives.
+  started, or `home_goal`'s nearest point clear by the stand-off when the map has since seen
+  an obstacle there); done when it arrives.
 - ``follow``: the navigator's follow command with the task's stand-off (the navigator's own
   stand-off again after the task); done when it has walked the length.
 - ``cover``: `mission_cover.CoverTask` (slices re-planned on the live map, a clean-up pass,
@@ -21,14 +22,40 @@ from enum import Enum
 
 import numpy as np
 
+from crawler_motion.navigation.apf.coverage import clear_spots
 from crawler_motion.navigation.apf_navigator import (
     ApfNavigator,
     FollowCommand,
     Side,
 )
 from crawler_motion.navigation.mission import Mission, Task, TaskKind
-from crawler_motion.navigation.mission_cover import CoverTask
+from crawler_motion.navigation.mission_cover import CoverTask, cover_field
 from crawler_motion.navigation.navigator import NavState, TerrainView, goal_error
+
+
+def home_goal(view: TerrainView, disc: float, standoff: float, start: np.ndarray
+              ) -> tuple[np.ndarray, str]:
+    """Where ``home`` walks to [m], and a note when it is not ``start`` itself.
+
+    The robot stood at ``start``, yet the map may since have seen an obstacle nearer than the
+    navigator's disc (radius ``disc`` [m]: virtual radius + margin) allows there (a rock
+    between the legs, a face seen closer), and the field cannot bring the body to a goal
+    nearer an obstacle than the stand-off ρ_o (``standoff`` [m]): its repulsion balances the
+    attraction short of it. Home is then the nearest point within ``disc`` of ``start`` where
+    the disc is ρ_o clear (`apf.coverage.clear_spots`, as the cover's clean-up goals); when
+    there is none, ``start`` (the navigator refuses it, or stops short of it, with the
+    reason)."""
+    start = np.asarray(start, dtype=float)
+    fld = cover_field(view, start[None, :], disc, standoff)
+    if float(fld.clearance(start)[0]) >= standoff - 1e-9:
+        return start, ""
+    clear = clear_spots(fld, start, disc)  # the cover's rule: within disc, ρ_o clear
+    if not len(clear):
+        return start, ""
+    home = clear[np.argmin(np.hypot(*(clear - start).T))]
+    return home, (f"home ({start[0]:.3f}, {start[1]:.3f}) is nearer an obstacle than the disc "
+                  f"and stand-off allow; walking to ({home[0]:.3f}, {home[1]:.3f}), "
+                  f"{float(np.hypot(*(home - start))):.3f} m from it")
 
 
 class MissionState(Enum):
@@ -129,7 +156,8 @@ class MissionRunner:
         if task.kind is TaskKind.GOTO:
             self.nav.set_goal(task.values["x"], task.values["y"], now)
         elif task.kind is TaskKind.HOME:
-            self.nav.set_goal(float(self.start[0]), float(self.start[1]), now)
+            home, self.reason = home_goal(view, disc, self.nav.settings.standoff, self.start)
+            self.nav.set_goal(float(home[0]), float(home[1]), now)
         elif task.kind is TaskKind.FOLLOW:
             standoff = task.values.get("standoff", self._base_standoff)
             self.nav.settings = replace(self.nav.settings, standoff=standoff)

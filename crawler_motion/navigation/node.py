@@ -50,9 +50,9 @@ from crawler_motion.errors import CommandError
 from crawler_motion.mapping.clouds import read_float32
 from crawler_motion.model.config import load_config
 from crawler_motion.model.joint_state import validate_joint_state
-from crawler_motion.model.rotations import quaternion_matrix, yaw_of
 from crawler_motion.navigation.apf_navigator import ApfNavigator, FollowCommand
 from crawler_motion.navigation.body import envelope_radius, virtual_radius
+from crawler_motion.navigation.command_log import CommandLog
 from crawler_motion.navigation.guards import (
     MapFreshness,
     SentTwists,
@@ -62,10 +62,11 @@ from crawler_motion.navigation.guards import (
 from crawler_motion.navigation.methods import make_navigator
 from crawler_motion.navigation.mission_topics import MissionTopics
 from crawler_motion.navigation.navigator import Method, NavState, Output, goal_error
+from crawler_motion.navigation.odometry_input import OdometryInput
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
 from crawler_motion.navigation.planner_watch import RefusalWatch
 from crawler_motion.navigation.view import view_from_grid
-from crawler_motion.runtime.log import Throttle
+from crawler_motion.runtime.callback_guard import CallbackGuard
 from crawler_motion.runtime.ros_diagnostics import counters_array
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor, parameter_values
@@ -101,50 +102,47 @@ class NavigatorNode(Node):
         settings = navigator_settings(values)
         self.cfg = load_config(values["config_file"] or None)
         self.nav = make_navigator(Method(values["method"]), settings)
-        self.frame, self.odom_timeout = values["map_frame"], values["odom_timeout"]
-        self.map_max_age = values["map_max_age"]
+        self.frame, self.odom_timeout, self.map_max_age = (
+            values["map_frame"], values["odom_timeout"], values["map_max_age"])
         self.freshness, self.sent = MapFreshness(), SentTwists()
         self.holds: Counter[str] = Counter()  # holds by cause
-        self._foreign_at = -float("inf")  # steady time of the last twist of another node [s]
-        self.foreign_twists = 0  # cmd_vel twists of other nodes seen
+        self._held_cause: str | None = None  # of the hold in force (logged once)
+        # steady time of the last cmd_vel twist of another node [s], and how many were seen
+        self._foreign_at, self.foreign_twists = -float("inf"), 0
         self.radius = envelope_radius(self.cfg.robot)
-        self.refusals, self.last_refusal = 0, ""
-        self._pose: tuple[float, float, float] | None = None
-        self._pose_at = -1e9
         self._heights: np.ndarray | None = None
         self._last_status = ""
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._cmd = self.create_publisher(Twist, "cmd_vel", 10)
         self._status = self.create_publisher(String, "navigation_status", latched)
-        self.create_subscription(PoseStamped, "goal_pose", self._on_goal, 10)
-        self.create_subscription(String, "follow_command", self._on_follow, 10)
-        self.create_subscription(OccupancyGrid, "terrain_map", self._on_map, 2)
-        self.create_subscription(PointCloud2, "terrain_heights", self._on_heights, 2)
-        self.create_subscription(Odometry, "odom", self._on_odom, 20)
-        self.create_subscription(JointState, "joint_states", self._on_joints,
-                                 qos_profile_sensor_data)
+        self.guard = CallbackGuard(self.get_logger(), alive=self.context.ok)
+        self.odom = OdometryInput(self.get_logger())
         self._planner = RefusalWatch()
-        self._refusal_log = Throttle(1.0)
-        self._refusal_status = Throttle(REFUSAL_STATUS_PERIOD)
-        self.create_subscription(String, "planner_status", self._on_planner_status, latched)
+        self.commands = CommandLog(self.get_logger(), REFUSAL_STATUS_PERIOD)
+        for kind, topic, callback, qos in (
+                (PoseStamped, "goal_pose", self._on_goal, 10),
+                (String, "follow_command", self._on_follow, 10),
+                (OccupancyGrid, "terrain_map", self._on_map, 2),
+                (PointCloud2, "terrain_heights", self._on_heights, 2),
+                (Odometry, "odom", self._on_odom, 20),
+                (JointState, "joint_states", self._on_joints, qos_profile_sensor_data),
+                (String, "planner_status", self._on_planner_status, latched),
+                (Twist, "cmd_vel", self._on_cmd_vel, 50)):
+            on_error = self._fail_all if topic == "terrain_map" else None
+            self.create_subscription(kind, topic, self.guard.wrap(topic, callback, on_error),
+                                     qos)
         self.create_service(Trigger, "~/cancel", self._on_cancel)
-        self.missions = MissionTopics(self, self.nav, self.cfg.tool_width, lambda: self._pose,
+        self.missions = MissionTopics(self, self.nav, self.cfg.tool_width, lambda: self.odom.pose,
                                       self._refuse, self._planner.start)
         self.create_timer(STATUS_PERIOD, lambda: self._publish_status(force=True))
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_timer(WATCH_PERIOD, self._watch)
-        self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, 50)
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
         self._publish_status(force=True)
 
     def _refuse(self, why: str) -> None:
-        """Count a refusal; its log line at most once a second per reason and the status at
-        most every `REFUSAL_STATUS_PERIOD` (a flood of bad goals floods neither; the 1 Hz
-        status carries the count)."""
-        self.refusals, self.last_refusal = self.refusals + 1, why
-        if self._refusal_log.allow(why):
-            self.get_logger().warning(f"goal refused: {why} ({self.refusals} so far)")
-        if self._refusal_status.allow("status"):
+        """Count and log a refusal (`CommandLog`); the status at most every 0.1 s."""
+        if self.commands.refused(why):
             self._publish_status(force=True)
 
     def _on_goal(self, msg: PoseStamped) -> None:
@@ -152,7 +150,7 @@ class NavigatorNode(Node):
             self._refuse(f"goal in frame '{msg.header.frame_id}'; send it in '{self.frame}'")
             return
         x, y = msg.pose.position.x, msg.pose.position.y
-        why = goal_error(x, y, None if self._pose is None else self._pose[:2],
+        why = goal_error(x, y, None if self.odom.pose is None else self.odom.pose[:2],
                          self.nav.settings.max_goal_distance)
         if why is not None:
             self._refuse(why)
@@ -163,9 +161,7 @@ class NavigatorNode(Node):
         except CommandError as exc:
             self._refuse(str(exc))
             return
-        self._planner.start()
-        self.get_logger().info(f"goal ({msg.pose.position.x:.3f}, {msg.pose.position.y:.3f})")
-        self._publish_status()
+        self._accepted("goal", f"goal ({x:.3f}, {y:.3f})")
 
     def _on_follow(self, msg: String) -> None:
         if not isinstance(self.nav, ApfNavigator):
@@ -178,9 +174,13 @@ class NavigatorNode(Node):
             return
         self.missions.cancel("replaced by a follow command")
         self.nav.set_follow(command, time.monotonic())
+        self._accepted("follow", f"follow {command.length:.3f} m, structure "
+                       f"{command.side.value}")
+
+    def _accepted(self, kind: str, text: str) -> None:
         self._planner.start()
-        self.get_logger().info(f"follow {command.length:.3f} m, structure {command.side.value}")
-        self._publish_status()
+        if self.commands.taken(kind, text):
+            self._publish_status()
 
     @property
     def _nav(self) -> Any:
@@ -195,13 +195,14 @@ class NavigatorNode(Node):
         self._publish_status()  # a foreign twist counted changes it too
 
     def _on_odom(self, msg: Odometry) -> None:
-        q, p = msg.pose.pose.orientation, msg.pose.pose.position
-        try:
-            yaw = yaw_of(quaternion_matrix(np.array([q.w, q.x, q.y, q.z])))
-        except ValueError:
-            return
-        if np.isfinite([p.x, p.y, yaw]).all():
-            self._pose, self._pose_at = (p.x, p.y, yaw), time.monotonic()
+        self.odom.take(msg, self.get_clock().now().nanoseconds * 1e-9)
+
+    def _fail_all(self, why: str) -> None:
+        """A map cycle raised (a defect the guard caught): fail the goal and the mission, stop."""
+        self.missions.cancel(f"navigator error: {why}")
+        self._nav.fail(f"navigator error: {why}")  # an ACTIVE goal only
+        self._stop()
+        self._publish_status(force=True)
 
     def _on_joints(self, msg: JointState) -> None:
         try:
@@ -230,7 +231,7 @@ class NavigatorNode(Node):
     def _hold_reason(self) -> tuple[str, str] | None:
         """(cause, reason) of a hold of the ACTIVE goal, None when it may walk."""
         now = time.monotonic()
-        if self._pose is None or now - self._pose_at > self.odom_timeout:
+        if self.odom.pose is None or now - self.odom.at > self.odom_timeout:
             return "odometry", "waiting for odometry"
         if now - self._foreign_at < FOREIGN_HOLD:
             return "cmd_vel_publisher", foreign_reason(self._other_publishers(), FOREIGN_HOLD)
@@ -242,11 +243,14 @@ class NavigatorNode(Node):
         cause counted and logged); True while held."""
         hold = self._hold_reason()
         if hold is None or self._nav.state is not NavState.ACTIVE:
+            self._held_cause = None
             return hold is not None
         cause, reason = hold
-        if self._nav.reason != reason:
+        if self._nav.reason != reason and self._held_cause == cause:
+            self._nav.reason = reason  # the same hold, its figures grown (e.g. the map's age)
+        elif self._nav.reason != reason:
             self._stop()
-            self._nav.reason = reason
+            self._nav.reason, self._held_cause = reason, cause
             self.holds[cause] += 1
             self.get_logger().warning(f"goal held: {reason}")
             self._publish_status()
@@ -267,8 +271,7 @@ class NavigatorNode(Node):
                 self._held()
 
     def _watch(self) -> None:
-        """Every `WATCH_PERIOD`: a hold when one is due (a mapper that died sends no map to
-        check on)."""
+        """Every `WATCH_PERIOD`: a hold when due (a dead mapper sends no map to check on)."""
         if self._nav.state is NavState.ACTIVE:
             self._held()
 
@@ -276,14 +279,16 @@ class NavigatorNode(Node):
         held = self._nav.state is NavState.ACTIVE and self._hold_reason() is not None
         others = self._other_publishers()
         warn = held or time.monotonic() - self._foreign_at < FOREIGN_HOLD
-        values = {"state": self._nav.state.value, "refusals": self.refusals,
-                  "last_refusal": self.last_refusal,
+        values = {"state": self._nav.state.value, "refusals": self.commands.refusals,
+                  "last_refusal": self.commands.last_refusal,
                   **{f"holds_{c}": self.holds[c] for c in ("odometry", "map",
                                                            "cmd_vel_publisher")},
                   "foreign_twists_refused": self._planner.foreign,
                   "foreign_twists_seen": self.foreign_twists,
                   "other_cmd_vel_publishers": " ".join(others),
-                  "map_age": round(min(self.freshness.age(time.monotonic()), 1e9), 3)}
+                  "map_age": round(min(self.freshness.age(time.monotonic()), 1e9), 3),
+                  "callback_errors": self.guard.total,
+                  **{f"odom_{k}": v for k, v in sorted(self.odom.refused.items())}}
         self._diagnostics.publish(counters_array(
             self, "navigation", HARDWARE_ID, "warn" if warn else "ok",
             self._nav.reason if held else ("another node publishes cmd_vel" if warn else "ok"),
@@ -306,14 +311,15 @@ class NavigatorNode(Node):
         if nav.state is NavState.ACTIVE:
             nav.reason = ""  # a hold's reason (a failure's stays for the mission to report)
         disc = self.radius + nav.settings.margin
-        ended = self.missions.before(self._pose, view, disc)
-        goal = nav.goal
-        out = nav.step(self._pose, self.radius, view, time.monotonic())
+        ended = self.missions.before(self.odom.pose, view, disc)
+        command = (nav.goal, getattr(nav, "command", None))
+        out = nav.step(self.odom.pose, self.radius, view, time.monotonic())
         ended = self.missions.after(view, disc) or ended
-        if nav.state is NavState.ACTIVE and (nav.goal is not goal or (
-                out.twist is not None and not any(out.twist))):
+        if nav.state is NavState.ACTIVE and (nav.goal is not command[0]
+                                             or getattr(nav, "command", None) is not command[1]):
             # the mission sent the next waypoint in the same cycle: walk on to it, no stop
-            out = nav.step(self._pose, self.radius, view, time.monotonic())
+            # (only then: a navigator waiting with a zero twist is not planned twice a cycle)
+            out = nav.step(self.odom.pose, self.radius, view, time.monotonic())
         elif nav.state is not NavState.ACTIVE and out.twist is not None and any(out.twist):
             out = Output(twist=(0.0, 0.0, 0.0), changed=True)  # the mission dropped the goal
         if ended and out.twist is None:
@@ -326,7 +332,7 @@ class NavigatorNode(Node):
 
     def _publish_status(self, force: bool = False) -> None:
         status = {**self._nav.status(), "radius": round(self.radius, 4),
-                  "refusals": self.refusals, "last_refusal": self.last_refusal,
+                  "refusals": self.commands.refusals, "last_refusal": self.commands.last_refusal,
                   "foreign_twists_refused": self._planner.foreign,
                   "last_foreign_twist": self._planner.last_foreign,
                   "foreign_twists_seen": self.foreign_twists}

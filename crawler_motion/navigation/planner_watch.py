@@ -9,7 +9,10 @@ again at every map, and the robot would stand while the goal stays ACTIVE until 
 reason. Other refusals (a pause, a stop in progress) pass and change nothing. A refused twist
 that the navigator did not send (the planner's ``refused_twist`` is none of its recent twists:
 another node publishes ``cmd_vel``) is not blamed on it: counted in `foreign`, the goal goes
-on.
+on. The first status the watch hears is its baseline, not news: it is the planner's latched
+one, and its refusals predate the navigator (a restarted navigator took the "send stand first"
+of a restarted driver, minutes old, for a refusal of its first goal's twists); a refusal of
+its own twists before it heard the planner is caught at the next twist.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ class RefusalWatch:
     def __init__(self) -> None:
         self.refusals = 0  # the planner's count in its latest status
         self._baseline = 0
+        self._heard = False  # a status was heard: the first one is the baseline
         self.foreign = 0  # refusals of twists the navigator did not send
         self.last_foreign = ""  # the latest of those
 
@@ -43,6 +47,8 @@ class RefusalWatch:
             refusals, last = int(status["refusals"]), str(status["last_refusal"] or "")
         except (ValueError, KeyError, TypeError):
             return None
+        if not self._heard:
+            self._heard, self._baseline = True, refusals
         new = refusals > self._baseline
         self.refusals = refusals
         if not (new and (last.startswith(TWIST_BEYOND_LIMITS) or needs_stand(last))):

@@ -67,6 +67,7 @@ class Journal:
         self.revision = 0
         self.stamp = 0.0
         self.refusals = 0
+        self.twist_refusals = 0  # of them, refusals of a cmd_vel twist
         self.last_refusal: str | None = None
         #: The twist (vx, vy, wz) of the last refusal of a twist beyond the walk's limits, so a
         #: navigator can tell its own twists from another publisher's.

@@ -215,7 +215,11 @@ class PlannerCore(CoreReadouts):
         new parameters at the next slot; + zero: stop. A zero twist otherwise does nothing.
         """
         now = self._clock(now)
-        self.requests.twist(vx, vy, wz, self._base(), now, self.resumer.active)
+        try:
+            self.requests.twist(vx, vy, wz, self._base(), now, self.resumer.active)
+        except CommandError:
+            self.ctx.journal.twist_refusals += 1  # a console tells them from its command's
+            raise
 
     # ---------------------------------------------------------------- output
     def tick(self, now: float) -> JointTarget | None:

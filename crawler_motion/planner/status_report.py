@@ -32,6 +32,7 @@ def planner_status(core: PlannerCore, late_ticks: int, stand_height: float) -> d
         "body_pose": ctx.body_pose.as_dict(),
         "last_refusal": journal.last_refusal,
         "refusals": journal.refusals,
+        "twist_refusals": journal.twist_refusals,
         "refused_twist": journal.refused_twist,
         "last_event": journal.last_event,
         "late_ticks": late_ticks,

@@ -26,12 +26,14 @@ READ_ERRORS = (McapError, EOFError, ValueError, KeyError, IndexError, OSError, T
 @dataclass
 class Recording:
     """The decoded messages of a recording: topic -> [(log time [ns], message)], the schema
-    names by topic, and ``damage`` (what stopped the reading) when the file is not intact."""
+    names by topic, ``damage`` (what stopped the reading) when the file is not intact, and what
+    was computed from the messages once (``derived``, by name)."""
 
     path: Path
     messages: dict[str, list[tuple[int, Any]]] = field(default_factory=lambda: defaultdict(list))
     types: dict[str, str] = field(default_factory=dict)
     damage: str | None = None
+    derived: dict[str, Any] = field(default_factory=dict)  # computed once by name (the mosaic)
 
     @property
     def count(self) -> int:

@@ -3,10 +3,12 @@ covered cells and the obstacles, from ``mission_status``, ``odom``, ``terrain_ma
 ``/diagnostics`` of a recording (empty when it holds no mission).
 
 Per task: its kind, time [s] and distance walked [m] (from the mission's own ``distance``),
-the covered share (cover tasks: the navigator's measured share), the least clearance of the
-body centre to the obstacle cells of the last map while it ran [m], the hull-or-leg contact
-ticks the simulator counted meanwhile (``/diagnostics``; "-" on the real robot), the
-diagnostics entries not OK meanwhile, and the outcome (done, or the failure's reason).
+the covered share (cover tasks: the navigator's measured share), the least distance of the
+body centre while it ran to the obstacle cells of the run's map [m] (`series.terrain`: every
+cell's latest known value; the live map is a window that forgets what the robot leaves),
+the hull-or-leg contact ticks the simulator counted meanwhile (``/diagnostics``; "-" on the
+real robot), the diagnostics entries not OK meanwhile, and the outcome (done, or the
+failure's reason).
 """
 
 from __future__ import annotations
@@ -20,6 +22,9 @@ import numpy as np
 from crawler_motion.recording import series
 from crawler_motion.recording.reader import Recording
 from crawler_motion.runtime.diagnostic_names import BODY_CONTACTS_KEY
+
+#: The picture shows the walked path and this much around it [m].
+VIEW_PAD = 0.8
 
 HEADER = ("task", "kind", "time [s]", "distance [m]", "covered", "min clearance [m]",
           "contacts", "faults", "outcome")
@@ -95,8 +100,8 @@ def task_rows(rec: Recording) -> list[tuple[str, ...]]:
 
 
 def draw_mission(rec: Recording, path: Path, tool_width: float) -> Path | None:
-    """The last map (obstacles dark), the cells within half the tool width of the walked path
-    (covered, green) and the path."""
+    """The run's map (`series.terrain`: obstacles dark, free white, unknown grey), the cells
+    within half the tool width of the walked path (covered, green) and the path."""
     from crawler_motion.recording import report_plots
 
     _, xyz = series.body_path(rec)
@@ -115,13 +120,17 @@ def draw_mission(rec: Recording, path: Path, tool_width: float) -> Path | None:
     fig, axes = report_plots.figure(size=(5.5, 5.0))
     ax = axes[0][0]
     ax.imshow(np.ma.masked_less(cells, 0), origin="lower", extent=extent, cmap="Greys",
-              vmin=0, vmax=100, alpha=0.8)
+              vmin=0, vmax=100)
     ax.imshow(np.ma.masked_equal(covered.reshape(cells.shape).astype(float), 0),
               origin="lower", extent=extent, cmap="Greens", vmin=0, vmax=1.5, alpha=0.6)
     ax.plot(xyz[:, 0], xyz[:, 1], "C0", lw=1.0, label="walked path (odom)")
     ax.plot(*xyz[0, :2], "go", label="start")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set(xlabel="x [m]", ylabel="y [m]",
-           title="mission: map (obstacles dark), covered cells (green), path")
-    ax.legend(loc="best", fontsize=8)
+    ax.set_facecolor("#d9d9d9")  # never known
+    lo, hi = xyz[:, :2].min(axis=0) - VIEW_PAD, xyz[:, :2].max(axis=0) + VIEW_PAD
+    ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), xlabel="x [m] (odom)", ylabel="y [m]",
+           title="mission: map of the run (obstacles dark, free white, unknown grey),\n"
+           "covered cells (green), walked path")
+    ax.title.set_fontsize(9)
+    ax.set_aspect("equal", adjustable="box")
+    ax.legend(loc="lower left", fontsize=8)
     return report_plots.save(fig, path)

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -101,14 +100,45 @@ def faults(rec: Recording) -> list[tuple[float, str, str, str]]:
     return out
 
 
+#: The maps of a recording are merged one per this period [s] (and the last).
+MOSAIC_PERIOD = 1.0
+
+
 def terrain(rec: Recording) -> tuple[np.ndarray, tuple[float, float, float, float]] | None:
-    """The last ``terrain_map``: cells (rows = y, -1 unknown) and its extent
-    (x0, x1, y0, y1) [m]; None when not recorded."""
+    """The run's ``terrain_map`` as one mosaic: every cell's latest known value over the
+    maps (one per `MOSAIC_PERIOD` and the last; -1 where never known), since the live map is
+    a window that moves with the robot and forgets what it leaves. Cells (rows = y) and the
+    extent (x0, x1, y0, y1) [m]; None when not recorded. Maps of another resolution than the
+    last are left out. Built once per recording (kept in ``rec.derived``)."""
+    if "terrain" not in rec.derived:
+        rec.derived["terrain"] = _mosaic(rec)
+    return rec.derived["terrain"]
+
+
+def _mosaic(rec: Recording) -> tuple[np.ndarray, tuple[float, float, float, float]] | None:
     msgs = rec.topic("terrain_map")
     if not msgs:
         return None
-    grid: Any = msgs[-1][1]
-    info = grid.info
-    cells = np.array(grid.data, dtype=float).reshape(info.height, info.width)
-    x0, y0 = info.origin.position.x, info.origin.position.y
-    return cells, (x0, x0 + info.width * info.resolution, y0, y0 + info.height * info.resolution)
+    picked, last = [], -np.inf
+    for log_time, grid in msgs:
+        t = _time(rec, log_time)
+        if t - last >= MOSAIC_PERIOD:
+            picked.append(grid)
+            last = t
+    if picked[-1] is not msgs[-1][1]:
+        picked.append(msgs[-1][1])
+    res = float(msgs[-1][1].info.resolution)
+    picked = [g for g in picked if abs(g.info.resolution - res) <= 1e-9]
+    # each map's place in cells of res (origins are whole cells of a rolling window)
+    places = [(round(g.info.origin.position.x / res), round(g.info.origin.position.y / res),
+               int(g.info.width), int(g.info.height)) for g in picked]
+    ix0, iy0 = min(p[0] for p in places), min(p[1] for p in places)
+    ix1, iy1 = max(p[0] + p[2] for p in places), max(p[1] + p[3] for p in places)
+    cells = np.full((iy1 - iy0, ix1 - ix0), -1.0)
+    for grid, (ix, iy, w, h) in zip(picked, places, strict=True):
+        data = np.asarray(grid.data, dtype=float).reshape(h, w)
+        window = cells[iy - iy0:iy - iy0 + h, ix - ix0:ix - ix0 + w]
+        known = data >= 0
+        window[known] = data[known]
+    cells.setflags(write=False)  # shared by every figure of the report
+    return cells, (ix0 * res, ix1 * res, iy0 * res, iy1 * res)

@@ -11,7 +11,10 @@ the loop the node runs per map: `MissionRunner.before` + `ApfNavigator.step` +
   target median of `CYCLE_TARGET`;
 - *re-plan of a cover slice*: the next waypoint chosen on the live map
   (`CoverTask._next_end`: the slice's clear points on the navigator's field) against
-  `REPLAN_TARGET`; and the covered-share measure and clean-up choice of the same task.
+  `REPLAN_TARGET`; and the covered-share measure and clean-up choice of the same task;
+- *far goals*: cycles of goals at the navigator's ``max_goal_distance`` (less 1 %) in eight
+  directions from the box's side, against the cycle period `PERIOD` (the 99th percentile
+  within it; the plan beyond the map's obstacles is the straight line: `apf.planner.open_line`).
 
 The machine may be shared: read the figures as orders of magnitude and rerun before drawing
 conclusions.
@@ -44,6 +47,8 @@ BOXES = HARBOUR_BOXES["harbour"]
 COVER = "tasks: [{cover: {area: [0.4, -2.6, 2.4, -0.6], spacing: 0.15}}]"
 #: Virtual radius of the standing robot [m], the cycle period [s] and the cycles to time.
 RADIUS, PERIOD = 0.215, 0.1
+#: Where the far goals start from: beside the harbour's box [m].
+FAR_START = (1.5, -1.0)
 
 
 def harbour_view() -> TerrainView:
@@ -94,6 +99,34 @@ def run(cycles: int) -> dict[str, list[float]]:
     return times
 
 
+def run_far(cycles: int) -> tuple[list[float], list[str]]:
+    """Time ``cycles`` cycles towards each of 8 goals at 0.99 ``max_goal_distance`` from
+    `FAR_START`; per-call times [s] and each goal's end state."""
+    view, times, ends = harbour_view(), [], []
+    for angle in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False):
+        nav = ApfNavigator()
+        far = 0.99 * nav.settings.max_goal_distance
+        goal = np.array(FAR_START) + far * np.array([math.cos(angle), math.sin(angle)])
+        nav.set_goal(float(goal[0]), float(goal[1]), 0.0)
+        pose = np.array([*FAR_START, angle])
+        for k in range(cycles):
+            t0 = time.perf_counter()
+            out = nav.step(tuple(pose), RADIUS, view, k * PERIOD)
+            times.append(time.perf_counter() - t0)
+            if nav.state is not NavState.ACTIVE:
+                break
+            if out.twist is not None:
+                vx, vy, wz = out.twist
+                c, s = math.cos(pose[2]), math.sin(pose[2])
+                pose += PERIOD * np.array([c * vx - s * vy, s * vx + c * vy, wz])
+        ends.append(f"{math.degrees(angle):.0f}°: {nav.state.value}")
+    return times, ends
+
+
+def _p99(t: list[float]) -> float:
+    return t[min(len(t) - 1, math.ceil(0.99 * len(t)) - 1)]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run and print the table; exit 0."""
     parser = argparse.ArgumentParser(prog="crawler-motion bench-mission",
@@ -102,15 +135,17 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="navigator cycles to time (default 600: 60 s of the task)")
     args = parser.parse_args(argv)
     times = run(max(1, args.cycles))
+    times["far"], ends = run_far(max(1, args.cycles // 6))
     print("# mission overhead on a 4 m x 4 m map (harbour cover task, apf navigator)\n")
     print(f"{'':34} {'calls':>6} {'median ms':>10} {'p99 ms':>8} {'max ms':>8}")
     for name, label in (("cycle", "navigator cycle (before+step+after)"),
                         ("replan", "re-plan of a cover slice"),
-                        ("share", "covered-share measure"), ("cleanup", "clean-up choice")):
+                        ("share", "covered-share measure"), ("cleanup", "clean-up choice"),
+                        ("far", "navigator cycle, far goals")):
         t = sorted(times[name])
         if not t:
             continue
-        p99 = t[min(len(t) - 1, math.ceil(0.99 * len(t)) - 1)]
+        p99 = _p99(t)
         print(f"{label:34} {len(t):6d} {1e3 * statistics.median(t):10.2f} {1e3 * p99:8.2f} "
               f"{1e3 * t[-1]:8.2f}")
     cyc = statistics.median(times["cycle"])
@@ -120,6 +155,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         rep = max(times["replan"])
         print(f"- cover slice re-plan max {1e3 * rep:.1f} ms (target <= {1e3 * REPLAN_TARGET:g}"
               f" ms) -> {'met' if rep <= REPLAN_TARGET else 'NOT met'}")
+    far = _p99(sorted(times["far"]))
+    print(f"- far goals ({', '.join(ends)}): cycle p99 {1e3 * far:.1f} ms (target <= the "
+          f"period {1e3 * PERIOD:g} ms) -> {'met' if far <= PERIOD else 'NOT met'}")
     return 0
 
 

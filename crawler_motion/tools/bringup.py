@@ -36,7 +36,7 @@ from crawler_motion.bringup.lineup import (
     check_params_file,
     lineup,
 )
-from crawler_motion.bringup.supervisor import BringUpError, Supervisor
+from crawler_motion.bringup.supervisor import BringUpError, Supervisor, interrupts_held
 from crawler_motion.errors import CrawlerMotionError
 from crawler_motion.runtime.cli_args import OneLineParser, finite_number
 from crawler_motion.runtime.dds import dds_defaults
@@ -174,14 +174,11 @@ class BringUp:
 
     def _stop(self, hold: bool, status: int) -> int:
         """Hold the robot (if asked and the planner runs), print the CPU table, stop all."""
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not orphan any
-        try:
+        with interrupts_held():
             if hold:
                 print(f"{self.prog}: {self._hold()}", file=sys.stderr, flush=True)
             print(self._cpu_table(), flush=True)
             killed = self.sup.stop()
-        finally:
-            signal.signal(signal.SIGINT, signal.default_int_handler)
         tail = f" ({', '.join(killed)} killed after the timeout)" if killed else ""
         print(f"{self.prog}: stopped: every process ended{tail}", flush=True)
         return status
@@ -204,7 +201,7 @@ class BringUp:
                 return "the planner did not answer; its cmd_vel timeout stops any walk"
             state = (console.status or {}).get("state")
             if state not in MOVING_STATES:
-                return f"the robot holds: planner {state}"
+                return f"robot held: {state} (the planner had already stopped the walk)"
             ok, message = console.run({"command": "stop"}, HOLD_TIMEOUT)
             state = (console.status or {}).get("state")
             return f"robot held: {state}" if ok else f"hold: {message}"

@@ -17,7 +17,7 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 from crawler_motion.motion.walk_options import OPTIONS
@@ -116,6 +116,10 @@ def json_object(text: str) -> dict[str, Any] | None:
     return value if isinstance(value, dict) else None
 
 
+#: How long `Console.connect` waits for every subscriber of gait_command to match [s].
+MATCH_WAIT = 3.0
+
+
 class Console:
     """A small rclpy node that talks to the planner (`main` makes one per run; tests too).
 
@@ -136,7 +140,8 @@ class Console:
         qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.status: dict[str, Any] | None = None
-        self.node.create_subscription(String, "planner_status", self._on_status, qos)
+        sub = self.node.create_subscription(String, "planner_status", self._on_status, qos)
+        self._status_topic = sub.topic_name
         self.printer: Callable[[str], None] = print
         self._t0 = time.monotonic()
         self._last_line = ""
@@ -167,9 +172,30 @@ class Console:
         return predicate()
 
     def connect(self, timeout: float) -> bool:
-        """Wait for the planner: a status received and our command publisher matched."""
+        """Wait for the planner: a status received, the planner's own subscription of
+        gait_command on the graph (`planner_listens`) and our command publisher matched by every
+        subscriber the graph knows (the recorder and the driver subscribe too: one match is not
+        the planner's, and a command sent before the planner matched is lost). A process
+        killed a moment ago stays on the graph until its lease ends: after `MATCH_WAIT` [s] one
+        match is enough."""
+        topic = self.pub_cmd.topic_name
+
+        def matched() -> bool:
+            # the planner (the node publishing planner_status) must be on the graph as a
+            # subscriber of gait_command: a new console may know only the recorder's and the
+            # driver's subscriptions yet, and a command sent then never reaches the planner
+            known = self.node.count_subscribers(topic)
+            return known > 0 and self.pub_cmd.get_subscription_count() >= known and \
+                planner_listens(self.node.get_publishers_info_by_topic(self._status_topic),
+                                self.node.get_subscriptions_info_by_topic(topic))
+
+        began = time.monotonic()
+        if self.wait_until(lambda: self.status is not None and matched(),
+                           min(timeout, MATCH_WAIT)):
+            return True
         return self.wait_until(lambda: self.status is not None
-                               and self.pub_cmd.get_subscription_count() > 0, timeout)
+                               and self.pub_cmd.get_subscription_count() > 0,
+                               max(0.0, timeout - (time.monotonic() - began)))
 
     def send(self, command: dict[str, Any]) -> None:
         """Publish one gait command."""
@@ -184,7 +210,7 @@ class Console:
     def run(self, command: dict[str, Any], timeout: float) -> tuple[bool, str]:
         """Send ``command`` and follow the status until done; returns (ok, message)."""
         assert self.status is not None
-        refusals = self.status.get("refusals", 0)
+        refusals = _command_refusals(self.status)
         revision = self.status.get("revision", -1)
         name = command.get("command")
         self.send(command)
@@ -192,7 +218,8 @@ class Console:
         interruptions = self.status.get("interruptions", 0)
 
         def refused() -> bool:
-            return self.status is not None and self.status.get("refusals", 0) > refusals
+            # a refused cmd_vel twist (another node's: a navigator) is not this command's
+            return self.status is not None and _command_refusals(self.status) > refusals
 
         def progressed() -> bool:
             st = self.status or {}
@@ -244,6 +271,21 @@ class Console:
     def close(self) -> None:
         """Destroy the node."""
         self.node.destroy_node()
+
+
+def planner_listens(status_publishers: Iterable[Any], command_subscribers: Iterable[Any]
+                    ) -> bool:
+    """Whether a node publishing ``planner_status`` also subscribes ``gait_command`` (graph
+    endpoint infos with ``node_name`` and ``node_namespace``)."""
+    def names(infos: Iterable[Any]) -> set[tuple[str, str]]:
+        return {(i.node_name, i.node_namespace) for i in infos}
+
+    return bool(names(status_publishers) & names(command_subscribers))
+
+
+def _command_refusals(status: dict[str, Any]) -> int:
+    """Refusals of gait commands in a ``planner_status`` (those of cmd_vel twists left out)."""
+    return int(status.get("refusals", 0)) - int(status.get("twist_refusals", 0))
 
 
 def outcome(ok: bool, message: str, prog: str = PROG) -> int:

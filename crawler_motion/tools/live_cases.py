@@ -11,13 +11,16 @@ The obstacles are the world's boxes (axis-aligned, as the shipped worlds have th
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from crawler_motion.tools.live_nav import LiveNav, LiveResult
+from crawler_motion.bringup.supervisor import interrupts_held
+from crawler_motion.navigation.mission import Task, parse_mission
+from crawler_motion.tools.live_nav import LiveNav, LiveResult, MapSnapshot
 
 #: Wall boxes of the shipped worlds: (x0, x1, y0, y1) [m].
 BOXES: dict[str, tuple[tuple[float, float, float, float], ...]] = {
@@ -49,7 +52,7 @@ CASES = {
     "wall_turn": Case("wall_turn", "low_wall", goal=(1.6, 0.0),
                       navigator={"steering": "turn"}),
     "u_trap_apf": Case("u_trap_apf", "u_trap", start=(-1.2, 0.0, 0.0), goal=(1.3, 0.0),
-                       navigator={"method": "apf"}, timeout=200.0),
+                       navigator={"method": "apf"}, timeout=300.0),
     **{f"follow_{int(s * 100)}": Case(f"follow_{int(s * 100)}", "long_wall",
                                       follow=(1.5, "left"),
                                       navigator={"method": "apf", "standoff": s})
@@ -67,35 +70,36 @@ def box_distance(world: str, xy: np.ndarray) -> np.ndarray:
     return best
 
 
-def map_distance(res: LiveResult, xy: np.ndarray) -> np.ndarray:
-    """Least distance [m] from points ``(k, 2)`` to the obstacle cells (squares) of the final
-    map: what the navigator keeps its disc's stand-off from."""
-    assert res.map_data is not None
-    x, y = res.cell_centres()
-    obstacle = res.map_data == 100
+def map_distance(grid: MapSnapshot, xy: np.ndarray) -> np.ndarray:
+    """Least distance [m] from points ``(k, 2)`` to the obstacle cells (squares) of a map (the
+    final one: what the navigator keeps its disc's stand-off from)."""
+    x, y = grid.cell_centres()
+    obstacle = grid.data == 100
     cells = np.column_stack([x[obstacle], y[obstacle]])
     if len(cells) == 0:
         return np.full(len(xy), np.inf)
-    half = res.map_resolution / 2
+    half = grid.resolution / 2
     d = np.maximum(np.abs(xy[:, None, :] - cells[None, :, :]) - half, 0.0)
     return np.hypot(d[..., 0], d[..., 1]).min(axis=1)
 
 
-def map_figures(world: str, res: LiveResult) -> dict[str, Any]:
-    """Cells touching a box that the map knows, of them obstacles and free; obstacle cells
-    whose square lies more than one cell from every box."""
-    assert res.map_data is not None
-    x, y = res.cell_centres()
-    h = res.map_resolution / 2
-    data = res.map_data
+def map_figures(world: str, grid: MapSnapshot,
+                boxes: tuple[tuple[float, float, float, float], ...] | None = None,
+                ) -> dict[str, Any]:
+    """Cells of a map touching a box (``boxes``, default every box of the world) that the map
+    knows, of them obstacles and free; obstacle cells whose square lies more than one cell
+    from every box of the world."""
+    x, y = grid.cell_centres()
+    h = grid.resolution / 2
+    data = grid.data
     touch = np.zeros(data.shape, dtype=bool)
     eps = 1e-6  # a cell that only shares an edge with the box does not touch it
-    for x0, x1, y0, y1 in BOXES[world]:
+    for x0, x1, y0, y1 in BOXES[world] if boxes is None else boxes:
         touch |= (x + h > x0 + eps) & (x - h < x1 - eps) & (y + h > y0 + eps) & (
             y - h < y1 - eps)
     known = touch & (data >= 0)
     centre_gap = box_distance(world, np.column_stack([x.ravel(), y.ravel()])).reshape(x.shape)
-    stray = (data == 100) & (centre_gap - h * np.sqrt(2) > res.map_resolution)
+    stray = (data == 100) & (centre_gap - h * np.sqrt(2) > grid.resolution)
     return {"wall_cells_known": int(known.sum()),
             "wall_cells_obstacle": int((data[known] == 100).sum()),
             "wall_cells_free": int((data[known] == 0).sum()),
@@ -108,6 +112,8 @@ def figures(case: Case, res: LiveResult, disc_radius: float) -> dict[str, float]
     """The case's figures from a run (``disc_radius``: the navigator's disc [m] when its
     status does not say)."""
     xy = res.path[:, 1:3]
+    if res.map is None:
+        raise RuntimeError(f"{case.name}: no terrain_map received ({res.state}: {res.reason})")
     out: dict[str, float] = {"state": res.state, "reason": res.reason,  # type: ignore[dict-item]
                              "duration_s": res.duration, "contact_ticks": res.contacts,
                              "min_centre_distance_m": float(box_distance(case.world,
@@ -119,11 +125,11 @@ def figures(case: Case, res: LiveResult, disc_radius: float) -> dict[str, float]
         out["disc_radius_m"] = disc_radius
         walked = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
         steady = walked >= walked[-1] / 5  # after the first fifth, as the offline figure
-        out["mean_clearance_m"] = float(map_distance(res, xy[steady]).mean() - disc_radius)
+        out["mean_clearance_m"] = float(map_distance(res.map, xy[steady]).mean() - disc_radius)
         out["mean_wall_clearance_m"] = float(
             box_distance(case.world, xy[steady]).mean() - disc_radius)
         out["walked_m"] = float(walked[-1])
-    out.update(map_figures(case.world, res))
+    out.update(map_figures(case.world, res.map))
     out.update({f"cpu_{k}_pct": v for k, v in res.cpu.items()})
     return out
 
@@ -165,11 +171,28 @@ def task_path(res: LiveResult, index: int) -> np.ndarray:
     return res.path[keep]
 
 
+def boxes_in(world: str, polygon: list[tuple[float, float]],
+             ) -> tuple[tuple[float, float, float, float], ...]:
+    """The world's boxes that overlap a polygon's bounding box."""
+    xs, ys = [p[0] for p in polygon], [p[1] for p in polygon]
+    return tuple(b for b in BOXES[world]
+                 if b[0] < max(xs) and b[1] > min(xs) and b[2] < max(ys) and b[3] > min(ys))
+
+
+def end_map(res: LiveResult, index: int) -> MapSnapshot | None:
+    """The map as task ``index`` (1-based) ended: the next task's first, else the final one
+    (the live map is a window that moves with the robot and forgets what it leaves)."""
+    return res.task_maps.get(index + 1, res.map)
+
+
 def mission_figures(world: str, res: LiveResult, start: tuple[float, float],
-                    kinds: list[str]) -> dict[str, Any]:
+                    tasks: list[Task]) -> dict[str, Any]:
     """A mission's figures: outcome, time, distance, covered share, home error, follow
     clearance (from the map, disc from the navigator), least body-centre distance to the
-    obstacles, contact ticks, CPU per process."""
+    obstacles, contact ticks, CPU per process; for a cover task over a box, the box's cells
+    that the map held as obstacles as the task began and at the end (an obstacle found during
+    the task: none, then some)."""
+    kinds = [t.kind.value for t in tasks]
     xy = res.path[:, 1:3]
     last = res.mission[-1] if res.mission else {}
     covers = [m["covered"] for m in res.mission if m.get("task_kind") == "cover"
@@ -180,27 +203,39 @@ def mission_figures(world: str, res: LiveResult, start: tuple[float, float],
                            "home_error_m": float(np.hypot(*(xy[-1] - np.array(start)))),
                            "min_centre_distance_m": float(box_distance(world, xy).min()),
                            "contact_ticks": res.contacts}
-    if "follow" in kinds and res.map_data is not None:
-        seg = task_path(res, kinds.index("follow") + 1)[:, 1:3]
-        if len(seg) > 5:
+    if "follow" in kinds:
+        index = kinds.index("follow") + 1
+        seg = task_path(res, index)[:, 1:3]
+        grid = end_map(res, index)
+        if len(seg) > 5 and grid is not None:
             seg = seg[len(seg) // 5:]
-            out["follow_clearance_m"] = float(map_distance(res, seg).mean()
+            out["follow_clearance_m"] = float(map_distance(grid, seg).mean()
                                               - (res.disc_radius or 0.325))
+    for index, task in enumerate(tasks, 1):
+        inside = boxes_in(world, task.polygon) if task.kind.value == "cover" else ()
+        grid = end_map(res, index)
+        if inside and index in res.task_maps and grid is not None:
+            out["cover_box_cells_at_start"] = map_figures(
+                world, res.task_maps[index], inside)["wall_cells_obstacle"]
+            out["cover_box_cells_at_end"] = map_figures(world, grid,
+                                                        inside)["wall_cells_obstacle"]
     out.update({f"cpu_{k}_pct": v for k, v in res.cpu.items()})
     return out
 
 
 def run_mission(world: str, text: str, logs: Path, domain: int | None = None,
-                timeout: float = 1800.0) -> tuple[LiveResult, dict[str, Any]]:
+                timeout: float = 1800.0, record: Path | None = None,
+                progress: Callable[[dict[str, Any]], None] | None = None,
+                ) -> tuple[LiveResult, dict[str, Any]]:
     """Walk a mission's text on the real-time stack with the navigator's defaults (rclpy
-    initialised by the caller)."""
-    from crawler_motion.navigation.mission import parse_mission
-
-    kinds = [t.kind.value for t in parse_mission(text).tasks]
-    nav = LiveNav(logs, world, domain=domain)
+    initialised by the caller), recorded to ``record`` (MCAP) when given; ``progress`` is
+    called with the latest ``mission_status`` while it runs."""
+    tasks = list(parse_mission(text).tasks)
+    nav = LiveNav(logs, world, domain=domain, record=record)
     try:
         nav.start()
-        res = nav.mission(text, timeout)
+        res = nav.mission(text, timeout, progress)
     finally:
-        nav.close()
-    return res, mission_figures(world, res, (0.0, 0.0), kinds)
+        with interrupts_held():  # a second Ctrl-C must not leave processes behind
+            nav.close()
+    return res, mission_figures(world, res, (0.0, 0.0), tasks)

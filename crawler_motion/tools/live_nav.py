@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -32,30 +32,45 @@ MISSION_FINAL = ("DONE", "FAILED", "CANCELLED", "REFUSED")
 
 
 @dataclass
+class MapSnapshot:
+    """A ``terrain_map`` as arrays: ``data`` (rows y; -1 unknown, 0 free, 100 obstacle), the
+    origin (x, y [m]) and the resolution [m]."""
+
+    data: np.ndarray
+    origin: tuple[float, float]
+    resolution: float
+
+    @classmethod
+    def of(cls, grid: Any) -> MapSnapshot:
+        """From a nav_msgs/OccupancyGrid."""
+        info = grid.info
+        return cls(np.asarray(grid.data, dtype=np.int16).reshape(info.height, info.width),
+                   (info.origin.position.x, info.origin.position.y), float(info.resolution))
+
+    def cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """x and y [m] of every map cell's centre."""
+        rows, cols = self.data.shape
+        x = self.origin[0] + (np.arange(cols) + 0.5) * self.resolution
+        y = self.origin[1] + (np.arange(rows) + 0.5) * self.resolution
+        return np.meshgrid(x, y)
+
+
+@dataclass
 class LiveResult:
-    """One run: outcome and reason, the body path ``(k, 3)`` (t [s], x, y [m]), the final map
-    (``data`` rows y, origin [m], resolution [m]), contact ticks and CPU % of one core by
-    process over the run."""
+    """One run: outcome and reason, the body path ``(k, 3)`` (t [s], x, y [m]), the final map,
+    contact ticks and CPU % of one core by process over the run; for a mission every
+    ``mission_status`` received and the map as each task began (by 1-based task index)."""
 
     state: str = ""
     reason: str = ""
     path: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    map_data: np.ndarray | None = None
-    map_origin: tuple[float, float] = (0.0, 0.0)
-    map_resolution: float = 0.05
+    map: MapSnapshot | None = None
     contacts: int = 0
     cpu: dict[str, float] = field(default_factory=dict)
     duration: float = 0.0
     disc_radius: float | None = None  # the navigator's mean disc radius (apf) [m]
     mission: list[dict[str, Any]] = field(default_factory=list)  # mission_status received
-
-    def cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
-        """x and y [m] of every map cell's centre."""
-        assert self.map_data is not None
-        rows, cols = self.map_data.shape
-        x = self.map_origin[0] + (np.arange(cols) + 0.5) * self.map_resolution
-        y = self.map_origin[1] + (np.arange(rows) + 0.5) * self.map_resolution
-        return np.meshgrid(x, y)
+    task_maps: dict[int, MapSnapshot] = field(default_factory=dict)
 
 
 class _Watch:
@@ -75,6 +90,7 @@ class _Watch:
         self.discs: list[float] = []  # the navigator's disc radius while active [m]
         self.mission: dict[str, Any] = {}
         self.missions: list[dict[str, Any]] = []  # every mission_status received
+        self.task_grids: dict[int, Any] = {}  # the map as each task began
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         node.create_subscription(Odometry, "odom", self._odom, 10)
         node.create_subscription(OccupancyGrid, "terrain_map", self._map, 2)
@@ -104,6 +120,9 @@ class _Watch:
         except ValueError:
             return
         self.missions.append({**self.mission, "received": time.monotonic()})
+        index = self.mission.get("task_index")
+        if isinstance(index, int) and index not in self.task_grids and self.grid is not None:
+            self.task_grids[index] = self.grid
 
     def _diag(self, msg: Any) -> None:
         for status in msg.status:
@@ -118,19 +137,21 @@ class LiveNav:
     def __init__(self, logs: Path, world: str,
                  start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  params: Mapping[str, Mapping[str, Any]] | None = None,
-                 domain: int | None = None) -> None:
+                 domain: int | None = None, record: Path | None = None,
+                 split: bool = False) -> None:
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
 
         extra = {k: dict(v) for k, v in (params or {}).items()}
         extra.setdefault("seabed_sim", {})["start_pose"] = [float(v) for v in start_pose]
-        self.options = BringUpOptions(world=world, bus=BusSpec.fresh(), extra=extra)
+        self.options = BringUpOptions(world=world, bus=BusSpec.fresh(), extra=extra,
+                                      record=record, split=split)
         self.env = isolated_env(domain)  # rclpy's domain here (None: the environment's)
         self.node = rclpy.create_node("live_nav_watch")
         self.watch = _Watch(self.node)
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
-        self._spin = threading.Thread(target=self.executor.spin, daemon=True)
+        self._spin = threading.Thread(target=self._spin_until_shutdown, daemon=True)
         self.sup = Supervisor(logs, self.env, self._ready)
 
     def _ready(self, nodes: Any) -> bool:
@@ -178,14 +199,18 @@ class LiveNav:
         text = json.dumps({"length": float(length), "side": side})
         return self._run(lambda: pub.publish(String(data=text)), timeout)
 
-    def mission(self, text: str, timeout: float) -> LiveResult:
-        """Send a mission's text and wait for its end (`LiveResult.state`: the mission's)."""
+    def mission(self, text: str, timeout: float,
+                progress: Callable[[dict[str, Any]], None] | None = None) -> LiveResult:
+        """Send a mission's text and wait for its end (`LiveResult.state`: the mission's);
+        ``progress`` is called with the latest ``mission_status`` every 0.1 s meanwhile."""
         from std_msgs.msg import String
 
         pub = self.node.create_publisher(String, "mission", 10)
-        return self._run(lambda: pub.publish(String(data=text)), timeout, mission=True)
+        return self._run(lambda: pub.publish(String(data=text)), timeout, mission=True,
+                         progress=progress)
 
-    def _run(self, send: Any, timeout: float, mission: bool = False) -> LiveResult:
+    def _run(self, send: Any, timeout: float, mission: bool = False,
+             progress: Callable[[dict[str, Any]], None] | None = None) -> LiveResult:
         w = self.watch
         time.sleep(0.5)  # publisher matched
         cpu0 = {n: cpu_seconds(p.pid) for n, p in self.sup.procs.items()}
@@ -205,6 +230,8 @@ class LiveNav:
         while time.monotonic() < end and state() not in (*FINAL, *MISSION_FINAL):
             if self.sup.exited() is not None:
                 break
+            if progress is not None and w.mission.get("mission") is not None:
+                progress(dict(w.mission))
             time.sleep(0.1)
         wall = time.monotonic() - began
         cpu = {n: 100.0 * ((cpu_seconds(p.pid) or 0.0) - (cpu0[n] or 0.0)) / wall
@@ -214,6 +241,7 @@ class LiveNav:
         if mission:
             res.state, res.reason = str(w.mission.get("state")), str(w.mission.get("reason"))
             res.mission = list(w.missions)
+            res.task_maps = {i: MapSnapshot.of(g) for i, g in w.task_grids.items()}
         return res
 
     def _result(self, wall: float, cpu: dict[str, float]) -> LiveResult:
@@ -223,14 +251,19 @@ class LiveNav:
                          disc_radius=float(np.mean(w.discs)) if w.discs else None)
         with w.lock:
             res.path = np.array(w.path) if w.path else np.zeros((0, 3))
-        grid = w.grid
-        if grid is not None:
-            info = grid.info
-            res.map_data = np.asarray(grid.data, dtype=np.int16).reshape(info.height,
-                                                                         info.width)
-            res.map_origin = (info.origin.position.x, info.origin.position.y)
-            res.map_resolution = float(info.resolution)
+        if w.grid is not None:
+            res.map = MapSnapshot.of(w.grid)
         return res
+
+    def _spin_until_shutdown(self) -> None:
+        """The executor's spin; ends quietly when the context is shut down (rclpy's own
+        SIGINT handler does that on Ctrl-C)."""
+        from rclpy.executors import ExternalShutdownException
+
+        try:
+            self.executor.spin()
+        except ExternalShutdownException:
+            pass
 
     def close(self) -> None:
         """Stop every process and the watch node."""

@@ -25,12 +25,13 @@ def draw_live_map(res: LiveResult, goal: tuple[float, float], world: str, out: P
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Rectangle
 
-    assert res.map_data is not None
-    rows, cols = res.map_data.shape
-    r = res.map_resolution
-    extent = (res.map_origin[0], res.map_origin[0] + cols * r, res.map_origin[1],
-              res.map_origin[1] + rows * r)
-    shown = np.select([res.map_data == 100, res.map_data == 0], [2, 1], 0)
+    grid = res.map
+    assert grid is not None
+    rows, cols = grid.data.shape
+    r = grid.resolution
+    extent = (grid.origin[0], grid.origin[0] + cols * r, grid.origin[1],
+              grid.origin[1] + rows * r)
+    shown = np.select([grid.data == 100, grid.data == 0], [2, 1], 0)
     fig, ax = plt.subplots(figsize=(5.5, 4.5), dpi=80)
     ax.imshow(shown, origin="lower", extent=extent, vmin=0, vmax=2,
               cmap=ListedColormap(["#9a9a9a", "#f2efe6", "#d62728"]))
@@ -66,7 +67,7 @@ def run_live(args: argparse.Namespace) -> int:
         rclpy.try_shutdown()
     for key, value in fig.items():
         print(f"{key}: {value:.3f}" if isinstance(value, float) else f"{key}: {value}")
-    if res.map_data is not None and len(res.path):
+    if res.map is not None and len(res.path):
         draw_live_map(res, case.goal, args.world, args.out)  # type: ignore[arg-type]
         print(f"map: {args.out}")
     return 0 if res.state == "ARRIVED" else 1

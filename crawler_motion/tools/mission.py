@@ -48,6 +48,21 @@ def progress_line(status: dict[str, Any]) -> str:
     return line + (f" ({status['reason']})" if status.get("reason") else "")
 
 
+class ProgressPrinter:
+    """Prints a ``mission_status``'s progress line on every change of task, state or reason
+    and every `PROGRESS_PERIOD` seconds."""
+
+    def __init__(self) -> None:
+        self.last = ""
+        self.printed = 0.0
+
+    def __call__(self, status: dict[str, Any]) -> None:
+        key = json.dumps([status.get(k) for k in ("task_index", "state", "reason")])
+        if key != self.last or time.monotonic() - self.printed >= PROGRESS_PERIOD:
+            print(f"{PROG}: {progress_line(status)}", flush=True)
+            self.last, self.printed = key, time.monotonic()
+
+
 def mission_text(path: Path) -> tuple[str, str]:
     """The checked text to send and its id (a unique one added when the file has none);
     `CommandError` naming the file and the problem."""
@@ -123,18 +138,14 @@ class MissionClient:
         else:
             print(f"{PROG}: error: the navigator did not take the mission", file=sys.stderr)
             return 1
-        last, printed = "", 0.0
+        show = ProgressPrinter()
         end = time.monotonic() + timeout
         while time.monotonic() < end:
             status = self.status or {}
-            line = progress_line(status)
-            key = json.dumps([status.get(k) for k in ("task_index", "state", "reason")])
-            if key != last or time.monotonic() - printed >= PROGRESS_PERIOD:
-                print(f"{PROG}: {line}", flush=True)
-                last, printed = key, time.monotonic()
+            show(status)
             if status.get("state") in EXIT and (status.get("mission") in (mid, None)):
                 code = EXIT[status["state"]]
-                print(f"{PROG}: {'done' if code == 0 else 'error'}: {line}",
+                print(f"{PROG}: {'done' if code == 0 else 'error'}: {progress_line(status)}",
                       file=sys.stdout if code == 0 else sys.stderr)
                 return code
             self.spin_until(lambda: False, 0.2)
@@ -143,18 +154,20 @@ class MissionClient:
         return 2
 
 
-def run_simulated(world: str, text: str, timeout: float) -> int:
+def run_simulated(world: str, text: str, timeout: float, record: Path | None = None) -> int:
     """The mission on a simulated stack of its own (a fresh ROS domain); its figures."""
     import random
     import tempfile
 
     import rclpy
 
-    from crawler_motion.bringup.checks import check_world
+    from crawler_motion.bringup.checks import check_output, check_world
     from crawler_motion.tools.live_cases import run_mission
 
     try:
         check_world(world)
+        if record is not None:
+            check_output(record, "recording")
     except CrawlerMotionError as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 1
@@ -162,7 +175,12 @@ def run_simulated(world: str, text: str, timeout: float) -> int:
     rclpy.init(domain_id=domain)
     try:
         with tempfile.TemporaryDirectory(prefix="mission-") as logs:
-            res, fig = run_mission(world, text, Path(logs), domain, timeout)
+            res, fig = run_mission(world, text, Path(logs), domain, timeout, record,
+                                   progress=ProgressPrinter())
+    except KeyboardInterrupt:
+        print(f"{PROG}: cancelled: the simulated stack is stopped"
+              f"{'' if record is None else f' ({record} is complete)'}", file=sys.stderr)
+        return 130
     finally:
         rclpy.try_shutdown()
     for key, value in fig.items():
@@ -180,6 +198,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--sim", metavar="WORLD", default=None, help="bring the simulated "
                         "stack up in WORLD first (as crawler-motion sim), run the mission, print "
                         "its figures and stop everything")
+    parser.add_argument("--record", metavar="RUN.mcap", type=Path, default=None,
+                        help="with --sim: record every topic to this MCAP file (then "
+                        "crawler-motion report RUN.mcap draws the mission)")
     args = parser.parse_args(own)
     text = mid = ""
     if args.mission != "cancel":
@@ -188,8 +209,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         except CommandError as exc:
             print(f"{PROG}: error: {exc}", file=sys.stderr)
             return 1
+    if args.record is not None and args.sim is None:
+        parser.error("--record needs --sim (with a running stack: crawler-motion sim --record)")
     if args.sim is not None:
-        return run_simulated(args.sim, text, args.timeout)
+        return run_simulated(args.sim, text, args.timeout, args.record)
     import rclpy
 
     rclpy.init(args=[PROG, *ros])

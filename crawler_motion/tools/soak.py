@@ -178,7 +178,12 @@ def save(path: Path, stack: Stack, result: SoakRun) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the soak test; returns the exit status."""
+    """Run the soak test (``--mission``: the mission soak with faults); the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if any(a == "--mission" or a.startswith("--mission=") for a in argv):
+        from crawler_motion.tools.mission_soak_cli import main as mission_soak
+
+        return mission_soak(argv)
     args = parse_args(argv)
     t_start = time.monotonic()
 

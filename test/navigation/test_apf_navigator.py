@@ -11,6 +11,8 @@ import pytest
 from crawler_motion.errors import CommandError
 from crawler_motion.navigation.apf.maps import U_TRAP, box_grid
 from crawler_motion.navigation.apf_navigator import (
+    PLAN_CELLS,
+    TRAP_PATIENCE,
     ApfNavigator,
     FollowCommand,
     Side,
@@ -52,6 +54,24 @@ def test_the_planning_grid_holds_the_points_and_keeps_obstacles_in_place(
     assert grid.extent == pytest.approx(expect_extent)
     assert grid.obstacle.sum() == view.obstacle.sum()
     assert grid.occupied(np.array([0.5, 0.5])) and not grid.occupied(np.array([0.7, 0.7]))
+
+
+# the 2 m map at 0.05 m from (-1, -1), the body on the x axis and 0.5 m of margin: the grid
+# holds (x + 1.5 m) x 2 m / 0.05² cells, PLAN_CELLS at x = 1248.5 m
+@pytest.mark.parametrize("x, refused", [(10.0, False), (1248.0, False), (1249.0, True),
+                                        (1e5, True)])
+def test_a_body_far_from_its_map_is_refused_within_the_cell_budget(x, refused) -> None:
+    view = view_of(((0.5, 0.5, 0.1, 0.1),), origin=(-1.0, -1.0), size=(2.0, 2.0))
+    if not refused:
+        assert planning_grid(view, np.array([[x, 0.0]]), 0.5).obstacle.size <= PLAN_CELLS
+        return
+    with pytest.raises(CommandError, match="beyond the budget of 1e\\+06: the body is far"):
+        planning_grid(view, np.array([[x, 0.0]]), 0.5)
+    nav = ApfNavigator()
+    nav.set_goal(x + 1.0, 0.0, 0.0)
+    out = nav.step((x, 0.0, 0.0), RADIUS, view, 0.0)  # a cycle fails the goal, no exception
+    assert nav.state is NavState.FAILED and "far from its map" in nav.reason
+    assert out.twist == (0.0, 0.0, 0.0)
 
 
 @pytest.mark.parametrize("distance, expect", [(0.0, [0, 0]), (0.5, [0.5, 0]), (1.0, [1, 0]),
@@ -105,14 +125,33 @@ def test_a_goal_in_an_obstacle_fails_and_the_robot_stands(goal, says) -> None:
     assert out.twist == (0.0, 0.0, 0.0)
 
 
-def test_a_trapped_plan_fails_with_the_reason() -> None:
+BOX = ((0.0, 1.0, 1.0, 0.05), (0.0, -1.0, 1.0, 0.05), (1.0, 0.0, 0.05, 1.05),
+       (-1.0, 0.0, 0.05, 1.05))  # walls round the origin
+
+
+@pytest.mark.parametrize("waited, state", [(0.0, NavState.ACTIVE),
+                                           (TRAP_PATIENCE - 0.01, NavState.ACTIVE),
+                                           (TRAP_PATIENCE, NavState.FAILED)])
+def test_a_trapped_plan_stands_and_plans_again_then_fails_with_the_reason(
+        waited, state) -> None:
     nav = ApfNavigator()
-    box = ((0.0, 1.0, 1.0, 0.05), (0.0, -1.0, 1.0, 0.05), (1.0, 0.0, 0.05, 1.05),
-           (-1.0, 0.0, 0.05, 1.05))  # the goal is walled in
-    nav.set_goal(0.0, 0.0, 0.0)
-    out = nav.step((-1.6, 0.0, 0.0), RADIUS, view_of(box), 0.0)
-    assert nav.state is NavState.FAILED and nav.reason.startswith("trapped")
+    nav.set_goal(0.0, 0.0, 10.0)  # walled in
+    nav.step((-1.6, 0.0, 0.0), RADIUS, view_of(BOX), 10.0)
+    out = nav.step((-1.6, 0.0, 0.0), RADIUS, view_of(BOX), 10.0 + waited)
+    assert nav.state is state and "trapped" in nav.reason
     assert out.twist == (0.0, 0.0, 0.0)
+
+
+def test_a_trap_the_fuller_map_opens_is_walked_after_all() -> None:
+    nav = ApfNavigator()
+    nav.set_goal(0.0, 0.0, 0.0)
+    nav.step((-1.6, 0.0, 0.0), RADIUS, view_of(BOX), 0.0)
+    opened = BOX[:3]  # the next map: no wall on the robot's side
+    out = nav.step((-1.6, 0.0, 0.0), RADIUS, view_of(opened), 1.0)
+    assert nav.state is NavState.ACTIVE and nav.reason == "" and any(out.twist)
+    nav.step((-1.6, 0.0, 0.0), RADIUS, view_of(BOX), 1.5)  # trapped again: patience anew
+    nav.step((-1.6, 0.0, 0.0), RADIUS, view_of(BOX), 1.5 + TRAP_PATIENCE - 0.01)
+    assert nav.state is NavState.ACTIVE
 
 
 def test_goto_arrives_within_the_tolerance_and_stops() -> None:

@@ -17,6 +17,7 @@ from crawler_motion.navigation.apf.planner import (
     PlanSettings,
     follow,
     min_clearance,
+    open_line,
     plan,
 )
 from crawler_motion.navigation.apf.virtual import place_virtual_goal, trapped
@@ -182,3 +183,40 @@ def test_bad_coverage_requests(area: tuple, spacing: float) -> None:
                         FieldSettings())
     with pytest.raises(CommandError):
         cover(fld, area, spacing, RADIUS)
+
+
+# a wall of cells with centres from x = 1.025; the field's reach is the disc radius + ρ_a (2 ρ_o)
+# + half a cell's diagonal = 0.297 + 0.2 + 0.0354 = 0.5324 m: open up to x = 0.4926
+@pytest.mark.parametrize(("end_x", "boxes", "expected"), [
+    (0.0, ((1.5, 0.0, 0.5, 2.0),), True),
+    (0.49, ((1.5, 0.0, 0.5, 2.0),), True),
+    (0.50, ((1.5, 0.0, 0.5, 2.0),), False),
+    (0.9, ((1.5, 0.0, 0.5, 2.0),), False),
+    (1.9, (), True),  # no obstacle cell at all
+])
+def test_open_line_table(end_x: float, boxes: tuple, expected: bool) -> None:
+    fld = ObstacleField(box_grid(boxes, (-2.0, -2.0), (4.0, 4.0), RES), RADIUS,
+                        FieldSettings(standoff=0.1))
+    assert open_line(fld, np.array([-1.0, 0.0]), np.array([end_x, 0.0])) is expected
+
+
+def test_the_open_line_shortcut_takes_the_steps_the_descent_takes() -> None:
+    fld = u_field()
+    short = plan(fld, START, GOAL, ApfMethod.APF_VIRTUAL)
+    # open_check beyond the budget: checked only at the start (not open: the U is in the way)
+    full = plan(fld, START, GOAL, ApfMethod.APF_VIRTUAL, PlanSettings(open_check=10 ** 9))
+    assert short.reached and full.reached
+    assert short.raw.shape == full.raw.shape
+    assert np.allclose(short.raw, full.raw, atol=1e-9)
+
+
+def test_a_goal_across_open_water_costs_no_field_steps(monkeypatch) -> None:
+    fld = ObstacleField(box_grid(U_TRAP, (-12.0, -12.0), (24.0, 24.0), RES), RADIUS,
+                        FieldSettings(standoff=0.1))
+    calls = []
+    monkeypatch.setattr(fld, "potential", lambda *a: calls.append(a) or (0.0, np.zeros(2)))
+    goal = np.array([-1.2, -9.9])  # 9.9 m from the start, the U 1.18 m aside
+    res = plan(fld, START, goal, ApfMethod.APF_VIRTUAL)
+    assert res.reached and not calls
+    assert np.hypot(*np.diff(res.raw, axis=0).T) == pytest.approx(S)
+    assert np.allclose(res.raw[-1], goal)

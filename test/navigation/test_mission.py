@@ -13,7 +13,7 @@ from crawler_motion.errors import CommandError
 from crawler_motion.navigation.apf_navigator import ApfNavigator
 from crawler_motion.navigation.mission import TaskKind, parse_mission
 from crawler_motion.navigation.mission_cover import CoverageTracker, inside_polygon
-from crawler_motion.navigation.mission_runner import MissionRunner, MissionState
+from crawler_motion.navigation.mission_runner import MissionRunner, MissionState, home_goal
 from crawler_motion.navigation.navigator import NavigatorSettings, NavState, TerrainView
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "config" / "missions" / "harbour.yaml"
@@ -153,3 +153,34 @@ def test_cancel_ends_the_mission_and_the_goal() -> None:
     assert nav.state is NavState.ACTIVE
     runner.cancel()
     assert runner.state is MissionState.CANCELLED and nav.state is NavState.IDLE
+
+
+# a wall whose face is x = 1.0; the disc (0.3 m) is clear for x < 0.7 and clear by the
+# stand-off (0.1 m) for x <= 0.6; home_goal looks no farther than the disc's radius
+@pytest.mark.parametrize("start_x, home_x", [
+    (0.5, 0.5),  # clear by more than the stand-off: home itself
+    (0.59, 0.59),  # clear by 0.11 m: still itself
+    (0.65, 0.6),  # clear by 0.05 m, within the stand-off: the nearest point clear by it
+    (0.75, 0.6),  # the disc overlaps by 0.05 m
+    (0.89, 0.6),  # by 0.19 m: 0.29 m away, within the disc's radius
+    (0.95, 0.95),  # 0.35 m away: nothing within 0.3 m; itself (the navigator refuses it)
+])
+def test_home_is_the_nearest_clear_point_when_the_start_now_is_not(start_x, home_x) -> None:
+    view = flat_view([(1.0, 3.0, -3.0, 3.0)])
+    home, note = home_goal(view, 0.3, 0.1, np.array([start_x, 0.0]))
+    assert home == pytest.approx([home_x, 0.0], abs=0.0126)  # on a grid of a quarter cell
+    assert home[0] <= 0.6 + 1e-9 or home_x == start_x
+    assert bool(note) is (home_x != start_x), note
+
+
+def test_a_home_task_walks_to_the_shifted_home_and_says_so() -> None:
+    view = flat_view([(1.0, 3.0, -3.0, 3.0)])
+    mission = parse_mission("tasks: [{home: {}}]")
+    nav = ApfNavigator(NavigatorSettings())
+    disc = 0.215 + nav.settings.margin  # as in walk()
+    runner = MissionRunner(mission, nav, np.array([0.85, 0.0]), 0.0, 0.2)
+    runner.before((0.0, 0.0, 0.0), view, disc, 0.0)
+    assert nav.goal is not None and 0.57 <= nav.goal[0] <= 0.585, nav.goal
+    assert "nearer an obstacle than the disc" in runner.status()["reason"]
+    walk(runner, view, limit=60.0)
+    assert runner.state is MissionState.DONE, runner.status()

@@ -21,6 +21,7 @@ from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from geometry_msgs.msg import PoseStamped, Twist  # noqa: E402
 from nav_msgs.msg import OccupancyGrid, Odometry  # noqa: E402
 from rclpy.qos import DurabilityPolicy, QoSProfile  # noqa: E402
+from sensor_msgs.msg import PointCloud2, PointField  # noqa: E402
 from std_msgs.msg import String  # noqa: E402
 
 from crawler_motion.testing.stack import (  # noqa: E402
@@ -42,6 +43,7 @@ class World:
         self.fresh = True  # map_load_time follows the clock
         self.mapper_alive = True  # maps published
         self.racing = False  # another publisher sends zero twists
+        self.odom_alive = True  # odometry published
         self.load = Time()
         self.status: dict = {}
         self.twists: list[Twist] = []
@@ -50,6 +52,8 @@ class World:
         self._map = n.create_publisher(OccupancyGrid, "terrain_map", 2)
         self.goal = n.create_publisher(PoseStamped, "goal_pose", 10)
         self.planner = n.create_publisher(String, "planner_status", LATCHED)
+        # the planner's latched status before any refusal (the navigator's baseline)
+        self.planner.publish(String(data=json.dumps({"refusals": 0, "last_refusal": ""})))
         n.create_subscription(String, "navigation_status", self._on_status, LATCHED)
         n.create_subscription(Twist, "cmd_vel", self.twists.append, 50)
         n.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, 10)
@@ -67,7 +71,8 @@ class World:
         odom = Odometry()
         odom.header.stamp, odom.header.frame_id = now, "odom"
         odom.pose.pose.orientation.w = 1.0
-        self._odom.publish(odom)
+        if self.odom_alive:
+            self._odom.publish(odom)
         if self.fresh:
             self.load = now
         if not self.mapper_alive:
@@ -85,6 +90,16 @@ class World:
         msg.header.frame_id = "odom"
         msg.pose.position.x = x
         self.goal.publish(msg)
+
+    def send_odom(self, x: float, ahead: float = 0.0) -> None:
+        """One odometry sample at (x, 0), stamped ``ahead`` [s] after now."""
+        odom = Odometry()
+        stamp = self.node.get_clock().now().nanoseconds + int(ahead * 1e9)
+        odom.header.stamp = Time(sec=stamp // 10 ** 9, nanosec=stamp % 10 ** 9)
+        odom.header.frame_id = "odom"
+        odom.pose.pose.position.x = x
+        odom.pose.pose.orientation.w = 1.0
+        self._odom.publish(odom)
 
     def spin_until(self, cond: Callable[[], bool], timeout: float) -> bool:
         end = time.monotonic() + timeout
@@ -105,9 +120,10 @@ class World:
 
 
 @contextmanager
-def walking_navigator(tmp_path: Path, domain: int, **params: Any) -> Iterator[World]:
+def walking_navigator(tmp_path: Path, domain: int, procs: StackProcesses | None = None,
+                      **params: Any) -> Iterator[World]:
     """The navigator process (``params``) walking a goal 0.8 m ahead in the scripted world."""
-    procs = StackProcesses(tmp_path)
+    procs = procs or StackProcesses(tmp_path)
     procs.start({"navigator": [*node_command("navigator"), *ros_args(params)]},
                 isolated_env(domain))
     world = World()
@@ -124,17 +140,22 @@ def walking_navigator(tmp_path: Path, domain: int, **params: Any) -> Iterator[Wo
 
 def test_a_stale_map_or_another_cmd_vel_publisher_holds_the_goal(tmp_path: Path,
                                                                   ros_domain: int) -> None:
-    with walking_navigator(tmp_path, ros_domain, map_max_age=0.5, timeout=60.0) as world:
+    procs = StackProcesses(tmp_path)
+    with walking_navigator(tmp_path, ros_domain, procs, map_max_age=0.5,
+                           timeout=60.0) as world:
         # the mapper stops fusing: maps keep coming with fresh stamps, the content ages
         world.fresh = False
         assert world.spin_until(lambda: "fresh map" in world.status.get("reason", ""), 3.0), (
             world.status)
         assert world.status["state"] == "ACTIVE" and world.spin_until(world.stopped, 1.0)
         held_at = len(world.twists)
-        world.spin_until(lambda: False, 0.5)
+        world.spin_until(lambda: False, 1.5)
         assert all(t.linear.x == 0.0 for t in world.twists[held_at - 1:])
+        # one hold, logged once and counted once, though its reason's age grows every cycle
+        assert procs.log_path("navigator").read_text().count("goal held: waiting for a "
+                                                              "fresh map") == 1
         assert world.spin_until(lambda: world.diagnostics.get(
-            "navigator: navigation", {}).get("holds_map", "0") != "0", 3.0), world.diagnostics
+            "navigator: navigation", {}).get("holds_map", "0") == "1", 3.0), world.diagnostics
         world.fresh = True  # fusing again: the goal resumes from the measured pose
         assert world.spin_until(world.walking, 3.0), world.status
         assert world.spin_until(lambda: world.status["reason"] == "", 1.0), world.status
@@ -176,3 +197,50 @@ def test_a_dead_mapper_holds_the_goal_with_the_reason(tmp_path: Path, ros_domain
         assert world.spin_until(lambda: "fresh map" in world.status.get("reason", ""), 3.0), (
             world.status)
         assert world.spin_until(world.stopped, 1.0) and world.status["state"] == "ACTIVE"
+
+
+def test_hostile_odometry_and_goal_floods_neither_kill_nor_flood(tmp_path: Path,
+                                                                 ros_domain: int) -> None:
+    procs = StackProcesses(tmp_path)
+    with walking_navigator(tmp_path, ros_domain, procs, method="apf") as world:
+        # the mapper's odometry rules: an absurd position (it crashed an apf goal's cycle),
+        # a jump of 100 m and a future stamp are refused and counted; the walk goes on
+        for x, ahead in ((1e300, 0.0), (100.0, 0.0), (0.0, 3600.0)):
+            world.send_odom(x, ahead)
+        assert world.spin_until(lambda: all(world.diagnostics.get(
+            "navigator: navigation", {}).get(f"odom_{k}", "0") != "0"
+            for k in ("BAD_POSE", "JUMP", "FUTURE")), 4.0), world.diagnostics
+        # a terrain_heights cloud whose field lies beyond its point step (it killed the node)
+        bad = PointCloud2(height=1, width=1, point_step=4, row_step=4, data=bytes(4))
+        bad.fields = [PointField(name=n, offset=100, datatype=PointField.FLOAT32, count=1)
+                      for n in ("x", "y", "z", "variance")]
+        world.node.create_publisher(PointCloud2, "terrain_heights", 2).publish(bad)
+        assert world.status["state"] == "ACTIVE" and world.spin_until(world.walking, 2.0)
+        assert world.diagnostics["navigator: navigation"]["callback_errors"] == "0"
+        # no odometry: held ("waiting for odometry"), and on again when it comes back
+        world.odom_alive = False
+        assert world.spin_until(lambda: world.status.get("reason") == "waiting for odometry",
+                                3.0), world.status
+        assert world.spin_until(world.stopped, 1.0)
+        world.odom_alive = True
+        assert world.spin_until(world.walking, 3.0), world.status
+        # floods: 300 valid goals and 300 refused ones of different numbers
+        statuses: list[int] = []
+        world.node.create_subscription(String, "navigation_status",
+                                       lambda _m: statuses.append(1), 1000)
+        world.spin_until(lambda: False, 0.5)
+        before = len(statuses)
+        log = procs.log_path("navigator")
+        lines = log.read_text().count("\n")
+        start = time.monotonic()
+        for k in range(300):
+            world.send_goal(0.5 + k * 1e-4)
+            world.send_goal(20.0 + k)  # beyond max_goal_distance: refused
+        world.spin_until(lambda: False, 1.0)
+        took = time.monotonic() - start
+        sent = len(statuses) - before
+        assert sent <= 2 + 2 * took / 0.1, (sent, took)  # at most every 0.1 s (+ 1 Hz)
+        added = log.read_text().count("\n") - lines
+        assert added <= 2 * (2 + took), log.read_text()[-2000:]  # once a second per kind
+        assert not procs.died(), procs.log_tails(20)
+        assert world.spin_until(lambda: world.status.get("state") == "ACTIVE", 2.0)

@@ -60,6 +60,7 @@ def test_a_twist_beyond_the_walk_ends_the_goal_other_refusals_do_not(texts, fail
 
 def test_the_same_refusal_ends_a_goal_once():
     watch = RefusalWatch()
+    watch.update(status(0, None))
     watch.start()
     assert watch.update(status(1, refusal_of(0.08))) is not None
     assert watch.update(status(1, refusal_of(0.08))) is None  # the same status again
@@ -119,12 +120,22 @@ def test_the_navigator_node_fails_its_goal_when_the_planner_refuses_its_twists()
         rclpy.try_shutdown(context=context)
 
 
+def test_the_first_status_heard_is_the_baseline_not_news():
+    # a restarted navigator hears the planner's latched status: its refusal is minutes old
+    watch = RefusalWatch()
+    watch.start()
+    assert watch.update(status(7, "cmd_vel ignored in state IDLE: send stand first")) is None
+    assert watch.update(status(8, "cmd_vel ignored in state IDLE: send stand first")) \
+        is not None  # a new one after it is
+
+
 def test_a_refused_twist_the_navigator_did_not_send_is_not_blamed_on_it():
     from crawler_motion.navigation.guards import SentTwists
 
     sent = SentTwists()
     sent.add((0.04, 0.0, 0.0))
     watch = RefusalWatch()
+    watch.update(status(0, None))
     watch.start()
     foreign = json.loads(status(1, refusal_of(1e6)))
     foreign["refused_twist"] = [1e6, 0.0, 0.0]  # another node's twist

@@ -462,6 +462,18 @@ def test_refusals_keep_the_state(setup, text, fragment):
     status = core.status()
     assert fragment in status["last_refusal"] and status["refusals"] == 1
     assert ("warn", f"refused: {info.value}") in core.pop_events()
+    assert status["twist_refusals"] == 0
+
+
+def test_a_refused_twist_is_counted_apart_from_refused_commands():
+    clock = _idle()
+    core = clock.core
+    with pytest.raises(CommandError):
+        core.on_twist(0.05, 0.0, 0.0, clock.t)
+    with pytest.raises(CommandError):
+        clock.send('{"command": "walk"}')
+    status = core.status()
+    assert (status["refusals"], status["twist_refusals"]) == (2, 1)
 
 
 # ------------------------------------------------------------------ cmd_vel

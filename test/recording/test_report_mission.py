@@ -10,6 +10,7 @@ from types import SimpleNamespace as Ns
 
 import numpy as np
 
+from crawler_motion.recording import series
 from crawler_motion.recording.reader import Recording
 from crawler_motion.recording.report import write_report
 from crawler_motion.recording.report_mission import HEADER, draw_mission, task_rows
@@ -74,3 +75,24 @@ def test_the_report_shows_the_mission(tmp_path: Path) -> None:
     text = index.read_text()
     assert "Mission tasks" in text and "93.0 %" in text
     assert (tmp_path / "mission.png").stat().st_size > 1000
+
+
+def window(t: float, x0: float, cells: dict[tuple[int, int], int]) -> tuple[int, Ns]:
+    """A 4 x 2 map of 0.5 m cells at origin (x0, 0), unknown but for ``cells`` (col, row)."""
+    data = np.full((2, 4), -1, dtype=np.int8)
+    for (col, row), value in cells.items():
+        data[row, col] = value
+    return int(t * SEC), Ns(data=data.ravel().tolist(), info=Ns(
+        width=4, height=2, resolution=0.5, origin=Ns(position=Ns(x=x0, y=0.0))))
+
+
+def test_the_map_is_the_runs_mosaic_of_the_moving_window() -> None:
+    rec = Recording(Path("synthetic.mcap"))
+    rec.messages["terrain_map"] = [
+        window(0.0, 0.0, {(0, 0): 100, (1, 0): 0}),  # an obstacle at x 0-0.5 m
+        window(0.5, 0.5, {(0, 1): 100}),  # within the merge period: left out
+        window(1.0, 1.0, {(0, 0): 0, (3, 1): 100}),  # moved on: the obstacle left behind
+        window(1.5, 1.5, {(0, 0): 100})]  # the last map: always merged
+    cells, extent = series.terrain(rec)
+    assert extent == (0.0, 3.5, 0.0, 1.0)
+    assert cells.tolist() == [[100, 0, 0, 100, -1, -1, -1], [-1, -1, -1, -1, -1, 100, -1]]

@@ -22,7 +22,8 @@ def test_a_short_run_prints_every_row_and_both_verdicts(capsys) -> None:
     assert bench_mission.main(["--cycles", "40"]) == 0
     out = capsys.readouterr().out
     for label in ("navigator cycle", "re-plan of a cover slice", "covered-share measure",
-                  "clean-up choice", "target <= 2 ms", "target <= 200 ms"):
+                  "clean-up choice", "target <= 2 ms", "target <= 200 ms",
+                  "navigator cycle, far goals", "target <= the period 100 ms"):
         assert label in out, out
 
 

@@ -37,12 +37,15 @@ class PlanSettings:
     keep_every: int = 5  # smoothing: every k-th point is kept
     max_steps: int = 20000
     max_virtual: int = 10
+    open_check: int = 25  # steps between checks for an open line to the goal (`open_line`)
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.step) and self.step > 0):
             raise ConfigError(f"step must be a finite number > 0 m, got {self.step}")
-        if self.keep_every < 1 or self.max_steps < 1 or self.max_virtual < 0:
-            raise ConfigError("keep_every and max_steps must be >= 1, max_virtual >= 0")
+        if (self.keep_every < 1 or self.max_steps < 1 or self.max_virtual < 0
+                or self.open_check < 1):
+            raise ConfigError("keep_every, max_steps and open_check must be >= 1, "
+                              "max_virtual >= 0")
 
 
 @dataclass
@@ -98,6 +101,31 @@ def check_point(fld: ObstacleField, p: np.ndarray, what: str) -> np.ndarray:
     return p
 
 
+def open_line(fld: ObstacleField, p: np.ndarray, goal: np.ndarray) -> bool:
+    """Whether the segment from ``p`` to ``goal`` stays where the field is the goal's attraction
+    alone: at least disc radius + ρ_a from every obstacle cell (centre distance less half a
+    cell's diagonal: conservative). There the descent is the straight line to the goal, which
+    `plan` then takes at once instead of step by step: far goals cost what the map window
+    holds, not what the distance is."""
+    if not len(fld.cells):
+        return True
+    seg = goal - p
+    length2 = float(seg @ seg)
+    t = np.clip(((fld.cells - p) @ seg) / length2, 0.0, 1.0) if length2 > 0 else 0.0
+    near = fld.cells - (p + np.outer(t, seg))
+    reach = fld.radius + fld.settings.band * fld.settings.standoff
+    reach += fld.grid.resolution / math.sqrt(2.0)
+    return bool(np.hypot(near[:, 0], near[:, 1]).min() >= reach)
+
+
+def _straight(p: np.ndarray, goal: np.ndarray, step: float) -> list[np.ndarray]:
+    """Steps of ``step`` [m] from ``p`` (excluded) towards ``goal``, then ``goal`` itself
+    (the last step at most ``step``), as the step-by-step descent takes them."""
+    d = math.hypot(*(goal - p))
+    n = max(0, math.ceil(d / step) - 1)
+    return [*(p + np.outer(np.arange(1, n + 1) * step / d, goal - p)), goal]
+
+
 def _keep(raw: list[np.ndarray], every: int) -> np.ndarray:
     pts = np.array(raw)
     kept = pts[::every]
@@ -126,9 +154,10 @@ def plan(fld: ObstacleField, start: np.ndarray, goal: np.ndarray, method: ApfMet
     raw, since, target = [p], 0, goal
     used: list[np.ndarray] = []
     reason = f"step budget of {s.max_steps} steps used up"
-    for _ in range(s.max_steps):
-        if math.hypot(*(p - goal)) <= s.step:
-            raw.append(goal)
+    for k in range(s.max_steps):
+        if math.hypot(*(p - goal)) <= s.step or (
+                target is goal and k % s.open_check == 0 and open_line(fld, p, goal)):
+            raw += _straight(p, goal, s.step)
             return PlanResult(_keep(raw, s.keep_every), True, "reached", used, np.array(raw))
         if target is not goal and math.hypot(*(p - target)) <= 2.0 * s.step:
             target, since = goal, len(raw) - 1
