@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-all lint bench fuzz soak soak-mission plots mission clean calibration-figures
+.PHONY: demo test test-live test-all lint bench fuzz soak soak-mission plots mission clean calibration-figures
 
 $(STAMP): requirements.txt setup.py
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,11 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m ruff check crawler_motion test
 	$(PY) -m pytest -q
+
+# The long real-time runs (about 15 minutes): the U trap, every follow stand-off, a short
+# harbour mission, a 3-minute mission soak with faults.
+test-live: $(STAMP)
+	$(PY) -m pytest -q -m live_long
 
 fuzz: $(STAMP)
 	FUZZ_EXAMPLES=10000 $(PY) -m pytest -q -s test/system/test_fuzz_chain.py test/planner/test_commands.py -k fuzz

@@ -10,7 +10,7 @@ without the ``<node>: `` form cannot be placed and counts for every robot (a fau
 origin pauses rather than being ignored).
 
 The keys that tools read from another node's status live here too (one spelling):
-`BODY_CONTACTS_KEY`.
+`BODY_CONTACTS_KEY`, `OBSTACLE_CONTACTS_KEY`, `FIRST_CONTACTS_KEY`.
 """
 
 from __future__ import annotations
@@ -19,6 +19,10 @@ from __future__ import annotations
 SEPARATOR = ": "
 #: Key of the simulator's count of manager ticks with the hull or a leg link in contact.
 BODY_CONTACTS_KEY = "hull or leg contact ticks"
+#: Key of the simulator's count of those ticks with anything but the seabed (an obstacle).
+OBSTACLE_CONTACTS_KEY = "hull or leg obstacle contact ticks"
+#: Key of the simulator's first hull or leg contacts: "seabed: <geom> on <geom> at <t> s; ...".
+FIRST_CONTACTS_KEY = "first hull or leg contacts"
 
 
 def status_prefix(namespace: str, node_name: str) -> str:

@@ -105,7 +105,9 @@ def map_figures(world: str, grid: MapSnapshot,
             "wall_cells_free": int((data[known] == 0).sum()),
             "wall_cells_free_at": [(round(float(a), 3), round(float(b), 3)) for a, b in zip(
                 x[known & (data == 0)], y[known & (data == 0)], strict=True)],
-            "stray_obstacle_cells": int(stray.sum())}
+            "stray_obstacle_cells": int(stray.sum()),
+            "stray_obstacle_cells_at": [(round(float(a), 3), round(float(b), 3)) for a, b in zip(
+                x[stray], y[stray], strict=True)]}
 
 
 def figures(case: Case, res: LiveResult, disc_radius: float) -> dict[str, float]:
@@ -116,6 +118,8 @@ def figures(case: Case, res: LiveResult, disc_radius: float) -> dict[str, float]
         raise RuntimeError(f"{case.name}: no terrain_map received ({res.state}: {res.reason})")
     out: dict[str, float] = {"state": res.state, "reason": res.reason,  # type: ignore[dict-item]
                              "duration_s": res.duration, "contact_ticks": res.contacts,
+                             "obstacle_contact_ticks": res.obstacle_contacts,
+                             "first_contacts": res.first_contacts,
                              "min_centre_distance_m": float(box_distance(case.world,
                                                                          xy).min())}
     if case.goal is not None:
@@ -202,7 +206,9 @@ def mission_figures(world: str, res: LiveResult, start: tuple[float, float],
                            "covered": covers[-1] if covers else None,
                            "home_error_m": float(np.hypot(*(xy[-1] - np.array(start)))),
                            "min_centre_distance_m": float(box_distance(world, xy).min()),
-                           "contact_ticks": res.contacts}
+                           "contact_ticks": res.contacts,
+                           "obstacle_contact_ticks": res.obstacle_contacts,
+                           "first_contacts": res.first_contacts}
     if "follow" in kinds:
         index = kinds.index("follow") + 1
         seg = task_path(res, index)[:, 1:3]

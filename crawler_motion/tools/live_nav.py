@@ -21,7 +21,11 @@ import numpy as np
 
 from crawler_motion.bringup.lineup import BringUpOptions, lineup
 from crawler_motion.bringup.supervisor import Supervisor
-from crawler_motion.runtime.diagnostic_names import BODY_CONTACTS_KEY
+from crawler_motion.runtime.diagnostic_names import (
+    BODY_CONTACTS_KEY,
+    FIRST_CONTACTS_KEY,
+    OBSTACLE_CONTACTS_KEY,
+)
 from crawler_motion.testing.bus import BusSpec
 from crawler_motion.testing.stack import isolated_env
 from crawler_motion.tools.procstat import cpu_seconds
@@ -66,6 +70,8 @@ class LiveResult:
     path: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     map: MapSnapshot | None = None
     contacts: int = 0
+    obstacle_contacts: int = 0  # of them, ticks touching anything but the seabed
+    first_contacts: str = ""  # the simulator's first contact of each kind, named
     cpu: dict[str, float] = field(default_factory=dict)
     duration: float = 0.0
     disc_radius: float | None = None  # the navigator's mean disc radius (apf) [m]
@@ -86,7 +92,8 @@ class _Watch:
         self.path: list[tuple[float, float, float]] = []
         self.grid: Any = None
         self.status: dict[str, Any] = {}
-        self.contacts = 0
+        self.contacts = self.obstacle_contacts = 0
+        self.first_contacts = ""
         self.discs: list[float] = []  # the navigator's disc radius while active [m]
         self.mission: dict[str, Any] = {}
         self.missions: list[dict[str, Any]] = []  # every mission_status received
@@ -129,6 +136,10 @@ class _Watch:
             for kv in status.values:
                 if kv.key == BODY_CONTACTS_KEY:
                     self.contacts = int(kv.value)
+                elif kv.key == OBSTACLE_CONTACTS_KEY:
+                    self.obstacle_contacts = int(kv.value)
+                elif kv.key == FIRST_CONTACTS_KEY:
+                    self.first_contacts = kv.value
 
 
 class LiveNav:
@@ -247,7 +258,8 @@ class LiveNav:
     def _result(self, wall: float, cpu: dict[str, float]) -> LiveResult:
         w = self.watch
         res = LiveResult(state=str(w.status.get("state")), reason=str(w.status.get("reason")),
-                         contacts=w.contacts, cpu=cpu, duration=wall,
+                         contacts=w.contacts, obstacle_contacts=w.obstacle_contacts,
+                         first_contacts=w.first_contacts, cpu=cpu, duration=wall,
                          disc_radius=float(np.mean(w.discs)) if w.discs else None)
         with w.lock:
             res.path = np.array(w.path) if w.path else np.zeros((0, 3))

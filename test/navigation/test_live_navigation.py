@@ -4,7 +4,8 @@ time (CAN at the bus rate), the cases of `tools.live_cases` walked as a user run
 Targets (issue "bring-up and the truthful map"): arrive within 0.10 m; the body centre never
 closer than 0.15 m to the wall; of the wall cells the final map knows, >= 90 % obstacles and
 none free; no obstacle cell more than one cell from a real obstacle; no hull or leg contact;
-a follow's mean clearance within 20 % of its stand-off.
+a follow's mean clearance within 20 % of its stand-off. `make test` walks the wall both ways
+and one stand-off; `make test-live` adds the U trap and the other stand-offs (long runs).
 """
 
 from __future__ import annotations
@@ -28,7 +29,11 @@ def check_map(fig: dict) -> None:
     assert fig["stray_obstacle_cells"] == 0, text
 
 
-@pytest.mark.parametrize("name", ["wall_crab", "wall_turn", "u_trap_apf"])
+LONG = pytest.mark.live_long  # `make test-live`
+
+
+@pytest.mark.parametrize("name", ["wall_crab", "wall_turn",
+                                  pytest.param("u_trap_apf", marks=LONG)])
 def test_goals_around_obstacles(name: str, tmp_path: Path, ros_domain: int) -> None:
     # the U trap's first, partial map can trap the apf plan: it is made again for 3 s
     # (apf_navigator.TRAP_PATIENCE) instead of failing the goal (1 run in 4 did before)
@@ -40,7 +45,8 @@ def test_goals_around_obstacles(name: str, tmp_path: Path, ros_domain: int) -> N
     check_map(fig)
 
 
-@pytest.mark.parametrize("name", ["follow_10", "follow_15", "follow_20"])
+@pytest.mark.parametrize("name", [pytest.param("follow_10", marks=LONG), "follow_15",
+                                  pytest.param("follow_20", marks=LONG)])
 def test_follow_a_wall_at_the_standoff(name: str, tmp_path: Path, ros_domain: int) -> None:
     case = CASES[name]
     _res, fig = run_case(case, tmp_path, ros_domain)

@@ -18,6 +18,7 @@ pytest.importorskip("mujoco")
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.live_long  # `make test-live`
 def test_a_three_minute_mission_soak_with_faults_passes(tmp_path: Path) -> None:
     cli = [str(Path(sys.executable).parent / "crawler-motion"), "soak", "--mission",
            str(ROOT / "config" / "missions" / "soak.yaml"), "--duration", "180", "--quiet",

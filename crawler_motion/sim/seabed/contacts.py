@@ -37,6 +37,20 @@ def body_contact(sm: SeabedModel, data: mujoco.MjData) -> bool:
     return bool(np.isin(geoms, sm.body_geoms).any())
 
 
+def body_touches(sm: SeabedModel, data: mujoco.MjData) -> list[tuple[int, int]]:
+    """The ``(body geom, world geom)`` pairs of the active contacts where the hull or a leg
+    link (anything but a foot) touches the world (the seabed, a box, a rock)."""
+    geoms = np.asarray(data.contact.geom[:data.ncon])
+    if len(geoms) == 0:
+        return []
+    body = np.isin(geoms, sm.body_geoms)
+    pairs = []
+    for (a, b), (ba, bb) in zip(geoms, body, strict=True):
+        if ba != bb:  # one side the robot's body, the other the world
+            pairs.append((int(a), int(b)) if ba else (int(b), int(a)))
+    return pairs
+
+
 def robot_load(sm: SeabedModel, data: mujoco.MjData) -> float:
     """Total normal force of the world on the robot [N]."""
     geoms, forces = normal_forces(sm, data)

@@ -28,7 +28,11 @@ from rclpy.time import Time
 from sensor_msgs.msg import Imu, PointCloud2, PointField
 
 from crawler_motion.canbus.bus import describe_bus, open_bus
-from crawler_motion.runtime.diagnostic_names import BODY_CONTACTS_KEY
+from crawler_motion.runtime.diagnostic_names import (
+    BODY_CONTACTS_KEY,
+    FIRST_CONTACTS_KEY,
+    OBSTACLE_CONTACTS_KEY,
+)
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
 from crawler_motion.sim.motor_manager import MotorManagerSim
@@ -193,7 +197,11 @@ class SeabedSimNode(Node):
         status.values = [KeyValue(key="simulated time [s]", value=f"{plant.sample().time:.3f}"),
                          KeyValue(key="physics steps", value=str(plant.steps)),
                          KeyValue(key="manager state", value=str(manager.state)),
-                         KeyValue(key=BODY_CONTACTS_KEY, value=str(plant.body_contacts))]
+                         KeyValue(key=BODY_CONTACTS_KEY, value=str(plant.body_contacts)),
+                         KeyValue(key=OBSTACLE_CONTACTS_KEY,
+                                  value=str(plant.obstacle_contacts)),
+                         KeyValue(key=FIRST_CONTACTS_KEY, value="; ".join(
+                             f"{k}: {v}" for k, v in plant.first_contacts.items()))]
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
         self._diag.publish(msg)

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 
 from crawler_motion.canbus.protocol import MotorProtocol
-from crawler_motion.sim.seabed.contacts import body_contact
+from crawler_motion.sim.seabed.contacts import body_touches
 from crawler_motion.sim.seabed.model import IMU_SENSORS, SeabedModel
 from crawler_motion.sim.seabed.scanner import RangeScanner
 from crawler_motion.sim.seabed.water import check_range
@@ -121,6 +121,12 @@ class SeabedPlant:
         #: Advances (manager ticks) that ended with the hull or a leg link (not a foot)
         #: touching the world: a collision with an obstacle or the seabed.
         self.body_contacts = 0
+        #: Of them, the advances with the hull or a leg link touching anything but the seabed
+        #: (a box, a rock: an obstacle).
+        self.obstacle_contacts = 0
+        #: The first such contact with the seabed and with an obstacle, "<robot geom> on
+        #: <world geom>" (what a contact figure means).
+        self.first_contacts: dict[str, str] = {}
         self._lock = threading.Lock()
         self._rng = np.random.default_rng(self.settings.seed)
         self._carry = 0.0  # [s] not yet stepped
@@ -157,8 +163,7 @@ class SeabedPlant:
             self.failure = reason
             return self._pos.copy()
         self._pos = self.protocol.to_axis(self.data.qpos[self.sm.qpos_index])
-        if body_contact(self.sm, self.data):
-            self.body_contacts += 1
+        self._count_contacts()
         stamp = self.clock() if self.clock is not None else float(self.data.time)
         sample = self._measure(stamp)
         scan = self._scan_if_due(stamp)
@@ -168,6 +173,24 @@ class SeabedPlant:
             if scan is not None:
                 self._scan = scan
         return self._pos.copy()
+
+    def _count_contacts(self) -> None:
+        """Counts the advance in `body_contacts` / `obstacle_contacts` when the hull or a leg
+        link touches the world, and keeps the first touch of each kind."""
+        touches = body_touches(self.sm, self.data)
+        if not touches:
+            return
+        self.body_contacts += 1
+        obstacle = [pair for pair in touches if pair[1] != self.sm.seabed_geom]
+        if obstacle:
+            self.obstacle_contacts += 1
+        for kind, pairs in (("seabed", [p for p in touches if p not in obstacle]),
+                            ("obstacle", obstacle)):
+            if pairs and kind not in self.first_contacts:
+                names = [mujoco.mj_id2name(self.sm.model, mujoco.mjtObj.mjOBJ_GEOM, g) or
+                         f"geom {g}" for g in pairs[0]]
+                self.first_contacts[kind] = (f"{names[0]} on {names[1]} at "
+                                             f"{self.data.time:.2f} s")
 
     def _step(self, n: int) -> None:
         """``n`` physics steps, summing the servo torques (joint order [N m])."""

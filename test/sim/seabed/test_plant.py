@@ -15,6 +15,7 @@ from crawler_motion.model.config import Config, load_scanner
 from crawler_motion.sim.manager_model import ManagerModel
 from crawler_motion.sim.manager_state import ManagerState
 from crawler_motion.sim.motor_manager import MotorManagerSim
+from crawler_motion.sim.seabed.contacts import body_touches
 from crawler_motion.sim.seabed.model import SeabedModel, SimSettings
 from crawler_motion.sim.seabed.parameters import SEABED_PARAMETERS, check_values
 from crawler_motion.sim.seabed.plant import (
@@ -222,3 +223,28 @@ def test_parameters_out_of_range_are_refused_with_the_reason(name: str, value: o
     else:
         with pytest.raises(ConfigError, match=name):
             check_values(values)
+
+
+@pytest.mark.parametrize("where, seabed, obstacle", [
+    ("standing", 0, 0),  # only the feet touch
+    ("hull on the seabed", 1, 0),
+    ("hull in the wall's face", 1, 1),  # the hull still rests on the seabed
+])
+def test_hull_contacts_are_counted_by_what_they_touch(plant: SeabedPlant, where: str,
+                                                      seabed: int, obstacle: int) -> None:
+    if where != "standing":
+        plant.data.qpos[2] -= 0.06  # the hull down to the seabed
+    if where == "hull in the wall's face":
+        plant.data.qpos[0] = 0.60 - 0.05  # the wall's near face is x = 0.60 m
+    mujoco.mj_forward(plant.sm.model, plant.data)
+    touched = [mujoco.mj_id2name(plant.sm.model, mujoco.mjtObj.mjOBJ_GEOM, g)
+               for _, g in body_touches(plant.sm, plant.data)]
+    assert ("seabed" in touched) == bool(seabed), touched
+    assert ("wall" in touched) == bool(obstacle), touched
+    plant._count_contacts()
+    assert (plant.body_contacts, plant.obstacle_contacts) == (min(1, seabed + obstacle),
+                                                              obstacle)
+    assert sorted(plant.first_contacts) == sorted(
+        k for k, n in (("seabed", seabed), ("obstacle", obstacle)) if n)
+    if obstacle:
+        assert " on wall at " in plant.first_contacts["obstacle"]
