@@ -126,6 +126,23 @@ def test_returns_far_from_the_estimate_are_counted() -> None:
     assert (grid.far[cell], grid.returns[cell]) == (2, 6)
 
 
+@pytest.mark.parametrize(("residual", "sigma", "far"), [
+    (0.011, 0.001, True),  # beyond step / 2 (0.01 m) and 2 σ
+    (0.009, 0.001, False),  # within step / 2
+    (0.015, 0.007, True),  # beyond 2 σ = 0.014 m
+    (0.013, 0.007, False),  # within 2 σ: the noise the return says it has
+    (-0.05, 0.02, True),  # below the estimate counts the same
+    (0.035, 0.02, False),  # a grazing return of the flat seabed seen at range
+])
+def test_a_return_is_far_beyond_half_the_step_and_two_of_its_own_sigma(
+        residual: float, sigma: float, far: bool) -> None:
+    grid = ElevationGrid(RES, CELLS, gate=2.5, drift=0.0, step=0.02)
+    cell = cell_at(grid, 0.01, 0.01)
+    grid.fuse(np.array([[0.01, 0.01, 0.0]] * 50), np.full(50, 1e-6))  # a settled cell
+    grid.fuse(np.array([[0.01, 0.01, residual]]), np.array([sigma**2]))
+    assert grid.far[cell] == int(far)
+
+
 def test_a_cell_above_the_threshold_without_the_margin_is_unknown_not_free() -> None:
     known = np.ones((9, 9), dtype=bool)
     height = np.zeros((9, 9))
