@@ -19,8 +19,8 @@ test: $(STAMP)
 	$(PY) -m ruff check crawler_motion test
 	$(PY) -m pytest -q
 
-# The long real-time runs (about 15 minutes): the U trap, every follow stand-off, a short
-# harbour mission, a 3-minute mission soak with faults.
+# The long real-time runs left out of `make test` (about 5 minutes): the U trap and the 0.10 and
+# 0.20 m follow stand-offs.
 test-live: $(STAMP)
 	$(PY) -m pytest -q -m live_long
 

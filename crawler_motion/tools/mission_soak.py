@@ -17,7 +17,8 @@ every fault the soak checks, from the simulator's ``odom`` (the body's true moti
 - faults that must not stop the robot (future odometry, refused goals, CAN garbage): the mission
   is not failed by them and the map keeps being fused.
 
-At the end: hull or leg contacts (the simulator's count), RSS per process over time, and the
+At the end: hull or leg contacts (the simulator's counts: with an obstacle, and in all with
+the seabed too, the first of each named), RSS per process over time, and the
 recording opened with ``mcap``'s reader and with ``rosbags``. Report and exit status in
 `mission_soak_report`.
 """
@@ -91,7 +92,9 @@ class SoakResult:
 
     faults: list[FaultRecord] = field(default_factory=list)
     rss: list[tuple[float, dict[str, float]]] = field(default_factory=list)
-    contacts: int = 0
+    contacts: int = 0  # hull or leg contact ticks, the seabed included
+    obstacle_contacts: int = 0  # of them, with an obstacle (a collision)
+    first_contacts: str = ""
     missions_done: int = 0
     unexpected: list[str] = field(default_factory=list)
     duration: float = 0.0
@@ -175,6 +178,8 @@ class MissionSoak:
             self.result.faults.append(self.inject(fault))
         self.walk(max(0.0, duration - self.now()))
         self.result.contacts = self.nav.watch.contacts
+        self.result.obstacle_contacts = self.nav.watch.obstacle_contacts
+        self.result.first_contacts = self.nav.watch.first_contacts
         self.result.duration = self.now()
         return self.result
 

