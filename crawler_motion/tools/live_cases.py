@@ -110,6 +110,13 @@ def map_figures(world: str, grid: MapSnapshot,
                 x[stray], y[stray], strict=True)]}
 
 
+def contact_figures(res: LiveResult) -> dict[str, Any]:
+    """The simulator's hull or leg contact ticks of a run: in all (the seabed included), with
+    an obstacle, and the first contact of each kind named."""
+    return {"contact_ticks": res.contacts, "obstacle_contact_ticks": res.obstacle_contacts,
+            "first_contacts": res.first_contacts}
+
+
 def figures(case: Case, res: LiveResult, disc_radius: float) -> dict[str, float]:
     """The case's figures from a run (``disc_radius``: the navigator's disc [m] when its
     status does not say)."""
@@ -117,9 +124,7 @@ def figures(case: Case, res: LiveResult, disc_radius: float) -> dict[str, float]
     if res.map is None:
         raise RuntimeError(f"{case.name}: no terrain_map received ({res.state}: {res.reason})")
     out: dict[str, float] = {"state": res.state, "reason": res.reason,  # type: ignore[dict-item]
-                             "duration_s": res.duration, "contact_ticks": res.contacts,
-                             "obstacle_contact_ticks": res.obstacle_contacts,
-                             "first_contacts": res.first_contacts,
+                             "duration_s": res.duration, **contact_figures(res),
                              "min_centre_distance_m": float(box_distance(case.world,
                                                                          xy).min())}
     if case.goal is not None:
@@ -206,9 +211,7 @@ def mission_figures(world: str, res: LiveResult, start: tuple[float, float],
                            "covered": covers[-1] if covers else None,
                            "home_error_m": float(np.hypot(*(xy[-1] - np.array(start)))),
                            "min_centre_distance_m": float(box_distance(world, xy).min()),
-                           "contact_ticks": res.contacts,
-                           "obstacle_contact_ticks": res.obstacle_contacts,
-                           "first_contacts": res.first_contacts}
+                           **contact_figures(res)}
     if "follow" in kinds:
         index = kinds.index("follow") + 1
         seg = task_path(res, index)[:, 1:3]

@@ -31,24 +31,18 @@ def foot_loads(sm: SeabedModel, data: mujoco.MjData) -> np.ndarray:
     return (hit.any(axis=1) * forces[:, None]).sum(axis=0)
 
 
+def body_touches(sm: SeabedModel, data: mujoco.MjData) -> np.ndarray:
+    """The ``(body geom, world geom)`` pairs ``(k, 2)`` of the active contacts where the hull
+    or a leg link (anything but a foot) touches the world (the seabed, a box, a rock)."""
+    geoms = np.asarray(data.contact.geom[:data.ncon]).reshape(-1, 2)
+    body = np.isin(geoms, sm.body_geoms)
+    one = body[:, 0] != body[:, 1]  # one side the robot's body, the other the world
+    return np.where(body[one, :1], geoms[one], geoms[one, ::-1])
+
+
 def body_contact(sm: SeabedModel, data: mujoco.MjData) -> bool:
     """True when the hull or a leg link (anything but a foot) touches the world."""
-    geoms = np.asarray(data.contact.geom[:data.ncon])
-    return bool(np.isin(geoms, sm.body_geoms).any())
-
-
-def body_touches(sm: SeabedModel, data: mujoco.MjData) -> list[tuple[int, int]]:
-    """The ``(body geom, world geom)`` pairs of the active contacts where the hull or a leg
-    link (anything but a foot) touches the world (the seabed, a box, a rock)."""
-    geoms = np.asarray(data.contact.geom[:data.ncon])
-    if len(geoms) == 0:
-        return []
-    body = np.isin(geoms, sm.body_geoms)
-    pairs = []
-    for (a, b), (ba, bb) in zip(geoms, body, strict=True):
-        if ba != bb:  # one side the robot's body, the other the world
-            pairs.append((int(a), int(b)) if ba else (int(b), int(a)))
-    return pairs
+    return len(body_touches(sm, data)) > 0
 
 
 def robot_load(sm: SeabedModel, data: mujoco.MjData) -> float:

@@ -178,16 +178,16 @@ class SeabedPlant:
         """Counts the advance in `body_contacts` / `obstacle_contacts` when the hull or a leg
         link touches the world, and keeps the first touch of each kind."""
         touches = body_touches(self.sm, self.data)
-        if not touches:
+        if len(touches) == 0:
             return
         self.body_contacts += 1
-        obstacle = [pair for pair in touches if pair[1] != self.sm.seabed_geom]
-        if obstacle:
+        on_obstacle = touches[:, 1] != self.sm.seabed_geom
+        if on_obstacle.any():
             self.obstacle_contacts += 1
-        for kind, pairs in (("seabed", [p for p in touches if p not in obstacle]),
-                            ("obstacle", obstacle)):
-            if pairs and kind not in self.first_contacts:
-                names = [mujoco.mj_id2name(self.sm.model, mujoco.mjtObj.mjOBJ_GEOM, g) or
+        for kind, pairs in (("seabed", touches[~on_obstacle]),
+                            ("obstacle", touches[on_obstacle])):
+            if len(pairs) and kind not in self.first_contacts:
+                names = [mujoco.mj_id2name(self.sm.model, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or
                          f"geom {g}" for g in pairs[0]]
                 self.first_contacts[kind] = (f"{names[0]} on {names[1]} at "
                                              f"{self.data.time:.2f} s")

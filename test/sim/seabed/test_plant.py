@@ -15,7 +15,7 @@ from crawler_motion.model.config import Config, load_scanner
 from crawler_motion.sim.manager_model import ManagerModel
 from crawler_motion.sim.manager_state import ManagerState
 from crawler_motion.sim.motor_manager import MotorManagerSim
-from crawler_motion.sim.seabed.contacts import body_touches
+from crawler_motion.sim.seabed.contacts import body_contact, body_touches
 from crawler_motion.sim.seabed.model import SeabedModel, SimSettings
 from crawler_motion.sim.seabed.parameters import SEABED_PARAMETERS, check_values
 from crawler_motion.sim.seabed.plant import (
@@ -241,6 +241,7 @@ def test_hull_contacts_are_counted_by_what_they_touch(plant: SeabedPlant, where:
                for _, g in body_touches(plant.sm, plant.data)]
     assert ("seabed" in touched) == bool(seabed), touched
     assert ("wall" in touched) == bool(obstacle), touched
+    assert body_contact(plant.sm, plant.data) == bool(seabed or obstacle)
     plant._count_contacts()
     assert (plant.body_contacts, plant.obstacle_contacts) == (min(1, seabed + obstacle),
                                                               obstacle)
