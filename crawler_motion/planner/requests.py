@@ -46,7 +46,7 @@ class WalkRequests:
         """The walk (parameters, steps) that `walk` would check up front for ``cmd``, found
         without changing anything; None for another command or one refused anyway."""
         ctl = self.walk_ctl
-        base = standing_base if self.ctx.state == STANDING else (ctl.pending or ctl.params)
+        base = standing_base if self.ctx.state == STANDING else ctl.newest
         if cmd.kind != "walk" or base is None:
             return None
         try:
@@ -94,7 +94,7 @@ class WalkRequests:
             self._refuse_posed("walk refused", now)
             base = standing_base
         else:
-            base = ctl.pending or ctl.params
+            base = ctl.newest
             assert base is not None
         params = self._apply(cmd, base, now)
         if state == WALKING:
@@ -107,8 +107,7 @@ class WalkRequests:
         if state == STANDING:
             ctl.start(params, cmd.steps, "command", now)
             return
-        ctl.pending = params
-        ctl.pending_steps = (cmd.steps,)
+        ctl.take_command(params, cmd.steps)
         ctl.source = "command"
         ctx.journal.touch(now)
         ctx.journal.event("info", f"walk parameters change at the next slot boundary "
@@ -129,12 +128,11 @@ class WalkRequests:
                 ctl.last_twist = now
                 ctl.request_stop(now, "zero cmd_vel: stopping into standing")
                 return
-            base = ctl.pending or ctl.params
+            base = ctl.newest
             assert base is not None
             params = self._from_twist(vx, vy, wz, base, now)
             ctl.last_twist = now
-            if params != (ctl.pending or ctl.params):
-                ctl.pending = params
+            ctl.take_twist(params, now)
             return
         if zero:
             return

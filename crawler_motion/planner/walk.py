@@ -31,7 +31,8 @@ class WalkController:
         self.slot_t0 = 0.0
         self.track: Track | None = None
         self.params: WalkParams | None = None
-        self.pending: WalkParams | None = None
+        self.pending: WalkParams | None = None  # parameters of the next slot
+        self.later: WalkParams | None = None  # a twist's, for the slot after the next one
         self.pending_steps: tuple[int | None] | None = None
         self.stop_requested = False
         self.steps_total: int | None = None
@@ -47,7 +48,7 @@ class WalkController:
 
     def clear(self) -> None:
         """Forget the walk in progress (status counters stay for the status)."""
-        self.seq = self.slot = self.track = self.params = self.pending = None
+        self.seq = self.slot = self.track = self.params = self.pending = self.later = None
         self.pending_steps = self.frozen_at = self.ahead = None
         self.stop_requested = self.waiting = False
 
@@ -116,10 +117,35 @@ class WalkController:
             return
         self.ctx.state = STOPPING
         self.stop_requested = True
-        self.pending = None
+        self.pending = self.later = None
         self.pending_steps = None
         self.ctx.journal.touch(now)
         self.ctx.journal.event("info", why)
+
+    @property
+    def newest(self) -> WalkParams | None:
+        """The newest parameters asked for (a twist's or a command's, else the slot's)."""
+        return self.later or self.pending or self.params
+
+    def take_twist(self, params: WalkParams, now: float) -> None:
+        """A ``cmd_vel`` twist's parameters at ``now`` [s], for the next slot; within
+        `PLAN_AHEAD_HORIZON` of its boundary, when the next slot is being planned ahead from
+        the parameters as they were, for the slot after it (*rule*: the tick never has to
+        plan a slot that a twist made stale; a twist takes effect 0.2 s to one slot plus
+        0.2 s after it arrives)."""
+        if params == self.newest:
+            return
+        if self.slot is not None and not self.waiting and (
+                self.slot_t0 + self.slot.duration - now <= PLAN_AHEAD_HORIZON):
+            self.later = params
+        else:
+            self.pending, self.later = params, None
+
+    def take_command(self, params: WalkParams, steps: int | None) -> None:
+        """A ``walk`` command's parameters and step budget, for the next slot (it replaces a
+        twist's not yet taken)."""
+        self.pending, self.later = params, None
+        self.pending_steps = (steps,)
 
     def _try_slot(self, params: WalkParams | None, stopping: bool
                   ) -> tuple[Slot | None, GaitSequencer | None, str | None]:
@@ -135,7 +161,7 @@ class WalkController:
             self.steady_done = 0
             self.pending_steps = None
         stopping, pending = self.next_inputs()
-        self.pending = None
+        self.pending, self.later = (None if stopping else self.later), None
         ahead, self.ahead = self.ahead, None
         track = facts = None
         if ahead is not None and ahead.matches(self.slot, pending, stopping):
