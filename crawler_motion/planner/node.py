@@ -174,6 +174,7 @@ class PlannerNode(Node):
             f"{settings.defaults.gait}/{settings.defaults.profile}; IDLE until 'stand'")
         self._publish_status()
         self._ahead.start()
+        self.imu.start()
         self._ticker.start()
         report_priority(self, priority, self._ticker.priority_error or process_error)
 
@@ -182,6 +183,7 @@ class PlannerNode(Node):
         self._ticker.stop(timeout=THREAD_JOIN_TIMEOUT)
         self._ahead.stop(THREAD_JOIN_TIMEOUT)
         self.measured.close()
+        self.imu.close()
         super().destroy_node()
 
     # ----------------------------------------------------------------- set-up

@@ -46,7 +46,7 @@ class WalkRequests:
         """The walk (parameters, steps) that `walk` would check up front for ``cmd``, found
         without changing anything; None for another command or one refused anyway."""
         ctl = self.walk_ctl
-        base = standing_base if self.ctx.state == STANDING else ctl.newest
+        base = standing_base if self.ctx.state == STANDING else ctl.inputs.newest(ctl.params)
         if cmd.kind != "walk" or base is None:
             return None
         try:
@@ -94,7 +94,7 @@ class WalkRequests:
             self._refuse_posed("walk refused", now)
             base = standing_base
         else:
-            base = ctl.newest
+            base = ctl.inputs.newest(ctl.params)
             assert base is not None
         params = self._apply(cmd, base, now)
         if state == WALKING:
@@ -107,7 +107,7 @@ class WalkRequests:
         if state == STANDING:
             ctl.start(params, cmd.steps, "command", now)
             return
-        ctl.take_command(params, cmd.steps)
+        ctl.inputs.take_command(params, cmd.steps)
         ctl.source = "command"
         ctx.journal.touch(now)
         ctx.journal.event("info", f"walk parameters change at the next slot boundary "
@@ -128,7 +128,7 @@ class WalkRequests:
                 ctl.last_twist = now
                 ctl.request_stop(now, "zero cmd_vel: stopping into standing")
                 return
-            base = ctl.newest
+            base = ctl.inputs.newest(ctl.params)
             assert base is not None
             params = self._from_twist(vx, vy, wz, base, now)
             ctl.last_twist = now

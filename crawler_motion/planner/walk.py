@@ -14,7 +14,15 @@ from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams, check_tr
 from crawler_motion.planner.context import JointTarget, PlannerContext
 from crawler_motion.planner.footholds import Footholds, SlotFacts
 from crawler_motion.planner.next_slot import PLAN_AHEAD_HORIZON, AheadJob, AheadPlan, plan_next
+from crawler_motion.planner.slot_inputs import SlotInputs
 from crawler_motion.planner.state import HOLDING, STANDING, STOPPING, WALK_STATES, WALKING
+
+
+def described(params: WalkParams, steps: int | None, source: str) -> str:
+    """The log line of a walk that starts."""
+    return (f"walk ({source}): {params.gait}/{params.profile}, stride {params.stride:g} m, "
+            f"heading {params.heading:g} rad, turn {params.turn:g} rad/step, "
+            f"{steps if steps is not None else 'until stopped'} steps")
 
 
 class WalkController:
@@ -31,13 +39,10 @@ class WalkController:
         self.slot_t0 = 0.0
         self.track: Track | None = None
         self.params: WalkParams | None = None
-        self.pending: WalkParams | None = None  # parameters of the next slot
-        self.later: WalkParams | None = None  # a twist's, for the slot after the next one
-        self.pending_steps: tuple[int | None] | None = None
+        self.inputs = SlotInputs()  # what the next slot is planned from
         self.stop_requested = False
         self.steps_total: int | None = None
-        self.steady_planned = 0
-        self.steady_done = 0
+        self.steady_planned = self.steady_done = 0
         self.groups = 1  # groups of the gait of the current / last walk
         self.source: str | None = None
         self.waiting = False
@@ -48,8 +53,9 @@ class WalkController:
 
     def clear(self) -> None:
         """Forget the walk in progress (status counters stay for the status)."""
-        self.seq = self.slot = self.track = self.params = self.pending = self.later = None
-        self.pending_steps = self.frozen_at = self.ahead = None
+        self.seq = self.slot = self.track = self.params = None
+        self.frozen_at = self.ahead = None
+        self.inputs.clear()
         self.stop_requested = self.waiting = False
 
     def freeze(self, at: float) -> None:
@@ -85,18 +91,13 @@ class WalkController:
         self.seq = seq
         self.params = params
         self.steps_total = steps
-        self.steady_planned = 0
-        self.steady_done = 0
+        self.steady_planned = self.steady_done = 0
         self.groups = seq.n_groups
         self.source = source
         self.ctx.state = WALKING
         self.foothold.start(self.ctx.hold)
         self._commit(slot, seq, now)
-        self.ctx.journal.event(
-            "info", f"walk ({source}): {params.gait}/{params.profile}, stride "
-                    f"{params.stride:g} m, heading {params.heading:g} rad, turn "
-                    f"{params.turn:g} rad/step, "
-                    f"{steps if steps is not None else 'until stopped'} steps")
+        self.ctx.journal.event("info", described(params, steps, source))
 
     def _commit(self, slot: Slot, seq: GaitSequencer, t0: float, track: Track | None = None,
                 facts: SlotFacts | None = None) -> None:
@@ -117,35 +118,15 @@ class WalkController:
             return
         self.ctx.state = STOPPING
         self.stop_requested = True
-        self.pending = self.later = None
-        self.pending_steps = None
+        self.inputs.clear()
         self.ctx.journal.touch(now)
         self.ctx.journal.event("info", why)
 
-    @property
-    def newest(self) -> WalkParams | None:
-        """The newest parameters asked for (a twist's or a command's, else the slot's)."""
-        return self.later or self.pending or self.params
-
     def take_twist(self, params: WalkParams, now: float) -> None:
-        """A ``cmd_vel`` twist's parameters at ``now`` [s], for the next slot; within
-        `PLAN_AHEAD_HORIZON` of its boundary, when the next slot is being planned ahead from
-        the parameters as they were, for the slot after it (*rule*: the tick never has to
-        plan a slot that a twist made stale; a twist takes effect 0.2 s to one slot plus
-        0.2 s after it arrives)."""
-        if params == self.newest:
-            return
-        if self.slot is not None and not self.waiting and (
-                self.slot_t0 + self.slot.duration - now <= PLAN_AHEAD_HORIZON):
-            self.later = params
-        else:
-            self.pending, self.later = params, None
-
-    def take_command(self, params: WalkParams, steps: int | None) -> None:
-        """A ``walk`` command's parameters and step budget, for the next slot (it replaces a
-        twist's not yet taken)."""
-        self.pending, self.later = params, None
-        self.pending_steps = (steps,)
+        """A ``cmd_vel`` twist's parameters at ``now`` [s] (`SlotInputs.take_twist`)."""
+        ahead = self.slot is not None and not self.waiting
+        to_boundary = self.slot_t0 + self.slot.duration - now if ahead else math.inf
+        self.inputs.take_twist(params, self.params, to_boundary)
 
     def _try_slot(self, params: WalkParams | None, stopping: bool
                   ) -> tuple[Slot | None, GaitSequencer | None, str | None]:
@@ -155,13 +136,11 @@ class WalkController:
     def _plan_slot(self, t0: float) -> bool:
         """Plan, check and start the next slot at ``t0``; False if none started."""
         assert self.seq is not None
-        if self.pending_steps is not None:
-            self.steps_total = self.pending_steps[0]
-            self.steady_planned = 0
-            self.steady_done = 0
-            self.pending_steps = None
+        steps, self.inputs.steps = self.inputs.steps, None
+        if steps is not None:  # a new step budget
+            self.steps_total, self.steady_planned, self.steady_done = steps[0], 0, 0
         stopping, pending = self.next_inputs()
-        self.pending, self.later = (None if stopping else self.later), None
+        self.inputs.advance(stopping)
         ahead, self.ahead = self.ahead, None
         track = facts = None
         if ahead is not None and ahead.matches(self.slot, pending, stopping):
@@ -190,14 +169,14 @@ class WalkController:
     def next_inputs(self) -> tuple[bool, WalkParams | None]:
         """(stopping, new parameters) of the next slot as things stand (mutates nothing)."""
         assert self.seq is not None
-        if self.pending_steps is not None:
-            steps_total, steady_planned = self.pending_steps[0], 0
+        if self.inputs.steps is not None:
+            steps_total, steady_planned = self.inputs.steps[0], 0
         else:
             steps_total, steady_planned = self.steps_total, self.steady_planned
         stopping = self.stop_requested or (
             steps_total is not None and self.seq.phase == "steady"
             and steady_planned >= steps_total * self.seq.n_groups)
-        return stopping, (None if stopping else self.pending)
+        return stopping, (None if stopping else self.inputs.pending)
 
     def _slot_end_pose(self) -> np.ndarray:
         assert self.track is not None

@@ -79,7 +79,7 @@ def test_a_walk_command_replaces_a_twist_not_yet_taken():
         t = round(t + DT, 9)
         core.tick(t)
         assert t < t0 + 10 * SLOT
-    assert core.walk.later is None
+    assert core.walk.inputs.later is None
 
 
 def test_a_steering_navigator_never_makes_a_tick_plan_a_slot(monkeypatch):
