@@ -19,10 +19,10 @@ test: $(STAMP)
 	$(PY) -m ruff check crawler_motion test
 	$(PY) -m pytest -q
 
-# The long real-time runs left out of `make test` (about 5 minutes): the U trap and the 0.10 and
-# 0.20 m follow stand-offs.
+# The real-time navigation tests alone (part of `make test`, about 6 minutes): the wall both
+# ways, the U trap, the three follow stand-offs and the short harbour mission.
 test-live: $(STAMP)
-	$(PY) -m pytest -q -m live_long
+	$(PY) -m pytest -q test/navigation/test_live_navigation.py test/navigation/test_live_mission.py
 
 fuzz: $(STAMP)
 	FUZZ_EXAMPLES=10000 $(PY) -m pytest -q -s test/system/test_fuzz_chain.py test/planner/test_commands.py -k fuzz

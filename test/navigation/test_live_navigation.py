@@ -7,8 +7,7 @@ none free; no obstacle cell more than one cell from a real obstacle; no hull or 
 with an obstacle; a follow's mean clearance within 20 % of its stand-off. A leg link brushing
 the seabed (counted apart by the simulator, seen for 1-2 ticks in CI at 0.47 m from the wall,
 beyond a leg's reach) is the walk's, not the navigation's: reported in the figures.
-`make test` walks the wall both ways and one stand-off; `make test-live` adds the U trap and
-the other stand-offs (long runs).
+`make test-live` runs them alone.
 """
 
 from __future__ import annotations
@@ -32,11 +31,7 @@ def check_map(fig: dict) -> None:
     assert fig["stray_obstacle_cells"] == 0, text
 
 
-LONG = pytest.mark.live_long  # `make test-live`
-
-
-@pytest.mark.parametrize("name", ["wall_crab", "wall_turn",
-                                  pytest.param("u_trap_apf", marks=LONG)])
+@pytest.mark.parametrize("name", ["wall_crab", "wall_turn", "u_trap_apf"])
 def test_goals_around_obstacles(name: str, tmp_path: Path, ros_domain: int) -> None:
     # the U trap's first, partial map can trap the apf plan: it is made again for 3 s
     # (apf_navigator.TRAP_PATIENCE) instead of failing the goal (1 run in 4 did before)
@@ -48,8 +43,7 @@ def test_goals_around_obstacles(name: str, tmp_path: Path, ros_domain: int) -> N
     check_map(fig)
 
 
-@pytest.mark.parametrize("name", [pytest.param("follow_10", marks=LONG), "follow_15",
-                                  pytest.param("follow_20", marks=LONG)])
+@pytest.mark.parametrize("name", ["follow_10", "follow_15", "follow_20"])
 def test_follow_a_wall_at_the_standoff(name: str, tmp_path: Path, ros_domain: int) -> None:
     case = CASES[name]
     _res, fig = run_case(case, tmp_path, ros_domain)
