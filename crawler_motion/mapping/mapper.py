@@ -267,9 +267,9 @@ class TerrainMapper:
         return round(self.settings.ground_radius / self.settings.resolution)
 
     def occupancy(self) -> np.ndarray:
-        """OccupancyGrid data (int8, rows y): 100 obstacle, 0 free, -1 unknown (or above the
-        threshold without the confidence margin: never free)."""
-        g, obstacle = self.grid, self.obstacles()
-        uncertain = uncertain_cells(g.height, g.known, self.settings.obstacle_height,
-                                    self._radius_cells, obstacle, g.far)
+        """OccupancyGrid data (int8, rows y): 100 obstacle, 0 free, -1 unknown (or not below
+        the threshold by the confidence margin: never free)."""
+        g, s, obstacle = self.grid, self.settings, self.obstacles()
+        uncertain = uncertain_cells(g.height, g.known, s.obstacle_height, self._radius_cells,
+                                    obstacle, g.far, g.variance, s.confidence)
         return occupancy(g.known, obstacle, uncertain)

@@ -15,9 +15,16 @@ estimate (`grid.ElevationGrid.far`) holds a step the crawler cannot take within 
 whatever its fused height (the mean of its foot and its top) says. Gated returns inflate a
 face cell's variance, so the height rule alone fails there.
 
-Occupancy: 100 obstacle; -1 unknown, which includes a known cell that is above the threshold
-but not by the confidence margin, or that has a return far from its estimate without being a
-face yet (`uncertain_cells`: never called free); 0 free.
+Occupancy: 100 obstacle; -1 unknown, which includes a known cell that is not below the
+threshold by the confidence margin (``height above ground + confidence × σ_h > threshold``),
+or that has a return far from its estimate without being a face yet (`uncertain_cells`:
+never called free); 0 free. *Rule chosen*: free needs the same confidence as an obstacle. A
+real-time U-trap run published a cell inside a wall as free: it held 3 returns from the foot
+of the wall's outer face (11, 12 and 40 mm high; the third gated out, σ_h grown to 31 mm), so
+its fused height 11.5 mm was below the 20 mm threshold although its σ_h was larger than the
+threshold. Now such a cell is unknown; a flat cell seen a few times near the robot (σ_h a few
+mm) stays free. The navigator walks unknown cells as free ones, so only the map's word
+changes.
 """
 
 from __future__ import annotations
@@ -82,11 +89,13 @@ def face_cells(far: np.ndarray, returns: np.ndarray) -> np.ndarray:
 
 def uncertain_cells(height: np.ndarray, known: np.ndarray, threshold: float,
                     radius_cells: int, obstacle: np.ndarray,
-                    far: np.ndarray | None = None) -> np.ndarray:
-    """Known cells that are not obstacles but above the threshold (not by the confidence
-    margin) or with a return far from their estimate (``far`` counts): published as unknown,
-    never free."""
-    doubt = above_ground(height, known, radius_cells) > threshold
+                    far: np.ndarray | None = None, variance: np.ndarray | None = None,
+                    confidence: float = 0.0) -> np.ndarray:
+    """Known cells that are not obstacles but not below the threshold by ``confidence`` σ_h
+    of their height (σ_h from ``variance``; 0 without it), or with a return far from their
+    estimate (``far`` counts): published as unknown, never free."""
+    sigma = 0.0 if variance is None else np.sqrt(np.where(known, variance, 0.0))
+    doubt = above_ground(height, known, radius_cells) + confidence * sigma > threshold
     if far is not None:
         doubt |= known & (far > 0)
     return ~obstacle & doubt

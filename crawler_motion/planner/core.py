@@ -249,11 +249,12 @@ class PlannerCore(CoreReadouts):
         """Plan and check the next slot now, ahead of its boundary; True if it planned.
 
         Call it between ticks: the tick at the boundary then only switches slots, and the
-        ~2-4 ms of solving and checking stay off the tick. The plan is used only if its inputs
-        (current slot, new walk parameters, stop request) are unchanged at the boundary;
+        ~2-10 ms of solving and checking stay off the tick. The plan is used only if its
+        inputs (current slot, new walk parameters, stop request) are unchanged at the boundary;
         otherwise the tick plans as before. With ``now`` [s], nothing is planned earlier than
-        `next_slot.PLAN_AHEAD_HORIZON` before the boundary, so a stream of changing twists is not
-        re-planned on every tick. This runs the planning in the caller's thread; it is the
+        `next_slot.PLAN_AHEAD_HORIZON` before the boundary; a twist arriving within it is kept
+        for the slot after (`slot_inputs.SlotInputs`), so only a stop or a walk command makes
+        the plan stale. This runs the planning in the caller's thread; it is the
         same as ``store_ahead(ahead_job(now).run())``, the split a multi-threaded caller uses
         to plan in another thread without holding its lock.
         """

@@ -69,7 +69,7 @@ def classify(grid: ElevationGrid, new_rule: bool = True) -> np.ndarray:
     obstacle = obstacle_cells(grid.height, grid.known, THRESHOLD, RADIUS, grid.variance, 2.0,
                               face_cells(grid.far, grid.returns))
     uncertain = uncertain_cells(grid.height, grid.known, THRESHOLD, RADIUS, obstacle,
-                                grid.far)
+                                grid.far, grid.variance, 2.0)
     return occupancy(grid.known, obstacle, uncertain)
 
 
@@ -160,3 +160,39 @@ def test_the_counts_follow_the_window() -> None:
     assert before[0] > 0
     assert grid.follow(1.2, 0.0)
     assert (grid.far[cell_at(grid, 0.525)], grid.returns[cell_at(grid, 0.525)]) == before
+
+
+# (heights of a cell's returns [mm], σ of each [mm], scans: 1 return each) -> published value.
+# A cell is free only below the threshold by the confidence margin (2 σ_h of its height).
+FREE_ROWS = [
+    # a cell inside the U trap's wall, seen only at the foot of its outer face (a real-time
+    # run; the 40 mm return gated out grew σ_h to 31 mm): the map had called it free
+    ((11.0, 12.0, 40.0), (16.0, 16.0, 15.0), -1),
+    ((0.0,), (16.0,), -1),  # flat seabed seen once at range: σ_h 16 mm, not known to be free
+    ((0.0,) * 30, (16.0,) * 30, 0),  # seen 30 times: σ_h 2.9 mm, free
+    ((1.0,) * 4, (9.0,) * 4, 0),  # h + 2 σ_h = 1 + 9 = 10 mm: free
+]
+
+
+@pytest.mark.parametrize(("heights", "sigmas", "value"), FREE_ROWS)
+def test_free_needs_the_confidence_margin_below_the_threshold(heights, sigmas, value) -> None:
+    grid = ElevationGrid(RES, CELLS, gate=2.5, drift=1e-5, centre=(0.5, 0.0))
+    ground = np.array([[x, y, 0.0] for x in np.arange(0.0, 1.0, 0.01)
+                       for y in (-0.1, -0.05)] * 3)  # settled seabed beside it
+    grid.fuse(ground, np.full(len(ground), 1e-6))
+    for h, s in zip(heights, sigmas, strict=True):
+        grid.fuse(np.array([[0.5, 0.06, h / 1000]]), np.array([(s / 1000) ** 2]))
+    assert classify(grid)[cell_at(grid, 0.5, 0.06)] == value
+
+
+@pytest.mark.parametrize(("rise", "value"), [(0.0099, 0), (0.0101, -1)])
+def test_the_free_margin_boundary(rise, value) -> None:
+    """σ_h 5 mm, confidence 2: free up to a rise of 10 mm above the local ground."""
+    known = np.ones((9, 9), dtype=bool)
+    height = np.zeros((9, 9))
+    height[4, 4] = rise
+    variance = np.full((9, 9), 1e-8)
+    variance[4, 4] = 0.005**2
+    obstacle = obstacle_cells(height, known, THRESHOLD, 2, variance, 2.0)
+    uncertain = uncertain_cells(height, known, THRESHOLD, 2, obstacle, None, variance, 2.0)
+    assert occupancy(known, obstacle, uncertain)[4, 4] == value
