@@ -32,9 +32,24 @@ from crawler_motion.runtime.ros_reader import SubscriptionReader
 MEASURED_QOS = qos_profile_sensor_data
 #: Least time between two warnings of more than one joint_states publisher [s].
 FOREIGN_WARN_PERIOD = 2.0
+#: A joint state's age by its header stamp is trusted up to this [s]; an older or unstamped
+#: one, or one stamped in the future (another machine's clock), counts from its receipt.
+MAX_STAMP_AGE = 1.0
 #: States handed over and not yet taken, at most (the oldest is dropped beyond: a stalled tick
 #: thread must not grow the queue; 0.16 s of feedback at 100 Hz).
 MAX_HANDED = 16
+
+
+def measured_at(msg: JointState, clock_ns: int, received: float | None = None) -> float:
+    """Steady time [s] ``msg`` was measured: its receipt ``received`` (None: now) minus its
+    age by its header stamp against the node's clock ``clock_ns`` [ns], when that age is
+    plausible (0 to `MAX_STAMP_AGE`). States that waited in the subscription's queue (a
+    planner process stopped, then continued) are so not taken for measurements made after
+    the wait: a resume starts from the pose measured after it."""
+    now = time.monotonic() if received is None else received
+    stamp = msg.header.stamp
+    age = (clock_ns - (stamp.sec * 1_000_000_000 + stamp.nanosec)) * 1e-9
+    return now - age if 0.0 <= age <= MAX_STAMP_AGE else now
 
 
 class MeasuredInput:

@@ -91,6 +91,8 @@ class Resumer:
         gap = now - last  # infinite before the first tick: nothing was interrupted
         if math.isfinite(gap) and gap > max(FREEZE_GAP, 3.0 / rate_hz):
             self.interrupt(last, f"no tick for {gap:.3f} s")
+            # the joints moved on meanwhile: a measurement from the last period or later
+            self._since = max(last, now - 1.0 / rate_hz)
         if self.ctx.state in WALK_STATES and self.walk.waiting and not self.active:
             self.interrupt(now, "pause")
 

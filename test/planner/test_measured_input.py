@@ -118,3 +118,18 @@ def test_a_state_handed_over_keeps_the_time_it_was_handed_over_at(node) -> None:
     assert measured.take_handed() == 2
     assert before <= received[0] <= received[0] + 0.15 < received[1] <= after
     measured.close()
+
+
+@pytest.mark.parametrize(("age", "expected"), [
+    (0.0, 100.0), (0.25, 99.75), (1.0, 99.0),
+    (1.01, 100.0),  # older than MAX_STAMP_AGE: from its receipt
+    (-0.01, 100.0),  # stamped in the future (another clock): from its receipt
+])
+def test_a_state_is_measured_when_its_stamp_says_within_reason(age, expected):
+    from crawler_motion.planner.measured_input import measured_at
+
+    clock_ns = 7 * 10**9 + 500_000_000
+    msg = state(0)
+    stamp_ns = clock_ns - round(age * 1e9)
+    msg.header.stamp = Time(sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
+    assert measured_at(msg, clock_ns, received=100.0) == pytest.approx(expected, abs=1e-9)

@@ -224,3 +224,17 @@ def test_a_stand_sent_before_the_first_tick_is_not_an_interruption():
     assert core.tick(0.0) is not None
     status = core.status()
     assert status["interruptions"] == 0 and not status["resuming"], status["last_event"]
+
+
+def test_a_measurement_made_while_the_planner_was_stopped_is_not_resumed_from():
+    """After a tick gap the resume waits for a state measured in the last period or later:
+    states that waited in the queue while the process was stopped (the joints still settling
+    on the last target) are not resumed from."""
+    run = Run()
+    run.walking()
+    last = run.t - DT
+    run.t += 0.6  # the process was stopped for 0.6 s
+    run.core.set_measured(run.q, last + 0.05)  # measured early in the stop, taken now
+    assert run.core.tick(run.t) is None
+    run.core.set_measured(run.q, run.t - 0.5 * DT)  # measured just before the continuation
+    assert run.core.tick(run.t + DT) is not None
