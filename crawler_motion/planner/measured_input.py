@@ -32,24 +32,39 @@ from crawler_motion.runtime.ros_reader import SubscriptionReader
 MEASURED_QOS = qos_profile_sensor_data
 #: Least time between two warnings of more than one joint_states publisher [s].
 FOREIGN_WARN_PERIOD = 2.0
-#: A joint state's age by its header stamp is trusted up to this [s]; an older or unstamped
-#: one, or one stamped in the future (another machine's clock), counts from its receipt.
-MAX_STAMP_AGE = 1.0
+#: A joint state's lag (the node's clock minus its header stamp) is compared with the least lag
+#: of this many recent states (2 s at 100 Hz), which holds the clocks' offset and the transport.
+LAG_WINDOW = 200
 #: States handed over and not yet taken, at most (the oldest is dropped beyond: a stalled tick
 #: thread must not grow the queue; 0.16 s of feedback at 100 Hz).
 MAX_HANDED = 16
 
 
-def measured_at(msg: JointState, clock_ns: int, received: float | None = None) -> float:
-    """Steady time [s] ``msg`` was measured: its receipt ``received`` (None: now) minus its
-    age by its header stamp against the node's clock ``clock_ns`` [ns], when that age is
-    plausible (0 to `MAX_STAMP_AGE`). States that waited in the subscription's queue (a
-    planner process stopped, then continued) are so not taken for measurements made after
-    the wait: a resume starts from the pose measured after it."""
-    now = time.monotonic() if received is None else received
-    stamp = msg.header.stamp
-    age = (clock_ns - (stamp.sec * 1_000_000_000 + stamp.nanosec)) * 1e-9
-    return now - age if 0.0 <= age <= MAX_STAMP_AGE else now
+class StampAges:
+    """When each joint state was measured, by its header stamp (no ROS: plain numbers).
+
+    A state's age is its lag (the node's clock minus its header stamp) beyond the least lag of
+    the last `LAG_WINDOW` states: a constant offset between the driver's and the planner's
+    clocks (another machine) and the usual transport delay are not age. States that waited in
+    the subscription's queue while the planner process was stopped are so taken for what they
+    are, measurements from before the wait (a resume starts from a pose measured after it).
+    An unstamped state (stamp 0) counts from its receipt.
+    """
+
+    def __init__(self) -> None:
+        self._lags: deque[float] = deque(maxlen=LAG_WINDOW)
+
+    def measured_at(self, msg: JointState, clock_ns: int, received: float | None = None
+                    ) -> float:
+        """Steady time [s] ``msg`` was measured: its receipt ``received`` (None: now) minus
+        its age against the node's clock ``clock_ns`` [ns]."""
+        now = time.monotonic() if received is None else received
+        stamp = msg.header.stamp
+        if stamp.sec == 0 and stamp.nanosec == 0:
+            return now
+        lag = (clock_ns - (stamp.sec * 1_000_000_000 + stamp.nanosec)) * 1e-9
+        self._lags.append(lag)
+        return now - (lag - min(self._lags))
 
 
 class MeasuredInput:
@@ -66,6 +81,7 @@ class MeasuredInput:
         self._topic = self._subscription.topic_name
         self._reader: SubscriptionReader | None = None
         self._handed: deque[tuple[JointState, float]] = deque(maxlen=MAX_HANDED)
+        self.ages = StampAges()  # when a state of the topic was measured
         self.closed = False
         self.handed = 0  # states handed over directly
         self.dropped = 0  # of them, dropped untaken (more than MAX_HANDED waiting)

@@ -50,7 +50,7 @@ from crawler_motion.planner.contact_topics import ContactTopics
 from crawler_motion.planner.core import JointTarget, PlannerCore
 from crawler_motion.planner.driver_view import parse_driver_status, rate_problem
 from crawler_motion.planner.imu_input import ImuInput
-from crawler_motion.planner.measured_input import MeasuredInput, measured_at
+from crawler_motion.planner.measured_input import MeasuredInput
 from crawler_motion.planner.parameters import (
     CALIBRATION_SPEC,
     PlannerSettings,
@@ -273,8 +273,8 @@ class PlannerNode(Node):
             self._log(Severity.WARNING, f"joint_states ignored: {exc}")
             return
         with self._lock:
-            self.core.set_measured(q, received if received is not None else measured_at(
-                msg, self.get_clock().now().nanoseconds))
+            self.core.set_measured(q, received if received is not None else (
+                self.measured.ages.measured_at(msg, self.get_clock().now().nanoseconds)))
         self._contact_topics.on_joint_state(msg, q)
 
     def _on_driver_status(self, msg: String) -> None:

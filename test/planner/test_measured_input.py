@@ -19,7 +19,12 @@ from rclpy.context import Context  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
-from crawler_motion.planner.measured_input import MAX_HANDED, MeasuredInput  # noqa: E402
+from crawler_motion.planner.measured_input import (  # noqa: E402
+    LAG_WINDOW,
+    MAX_HANDED,
+    MeasuredInput,
+    StampAges,
+)
 from crawler_motion.testing.polling import wait_until  # noqa: E402
 
 
@@ -120,16 +125,34 @@ def test_a_state_handed_over_keeps_the_time_it_was_handed_over_at(node) -> None:
     measured.close()
 
 
-@pytest.mark.parametrize(("age", "expected"), [
-    (0.0, 100.0), (0.25, 99.75), (1.0, 99.0),
-    (1.01, 100.0),  # older than MAX_STAMP_AGE: from its receipt
-    (-0.01, 100.0),  # stamped in the future (another clock): from its receipt
-])
-def test_a_state_is_measured_when_its_stamp_says_within_reason(age, expected):
-    from crawler_motion.planner.measured_input import measured_at
-
-    clock_ns = 7 * 10**9 + 500_000_000
+def stamped(clock_ns: int, lag: float) -> JointState:
     msg = state(0)
-    stamp_ns = clock_ns - round(age * 1e9)
+    stamp_ns = clock_ns - round(lag * 1e9)
     msg.header.stamp = Time(sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
-    assert measured_at(msg, clock_ns, received=100.0) == pytest.approx(expected, abs=1e-9)
+    return msg
+
+
+# (lags of the states before [s], lag of the state [s]) -> its age [s] (received at 100.0 s)
+AGE_ROWS = [
+    ((), 0.25, 0.0),  # the first state: its lag is the offset
+    ((0.001,) * 5, 0.601, 0.6),  # waited 0.6 s in the queue while the planner was stopped
+    ((0.001,) * 5, 3.001, 3.0),  # 3 s: still its age (a soak's stops last 1-3 s)
+    ((2.0,) * 5, 2.0005, 0.0005),  # the driver's clock 2 s behind: not age
+    ((-1.5,) * 5, -1.5, 0.0),  # 1.5 s ahead
+    ((0.0,) * 5 + (2.0,) * LAG_WINDOW, 2.0, 0.0),  # a clock step: forgotten within the window
+]
+
+
+@pytest.mark.parametrize(("before", "lag", "age"), AGE_ROWS)
+def test_a_state_is_as_old_as_its_lag_beyond_the_least_recent_lag(before, lag, age):
+    clock_ns = 1_700_000_000 * 10**9
+    ages = StampAges()
+    for earlier in before:
+        ages.measured_at(stamped(clock_ns, earlier), clock_ns, received=99.0)
+    got = ages.measured_at(stamped(clock_ns, lag), clock_ns, received=100.0)
+    assert got == pytest.approx(100.0 - age, abs=1e-6)
+
+
+def test_an_unstamped_state_counts_from_its_receipt():
+    msg = JointState(name=["a"], position=[0.1])
+    assert StampAges().measured_at(msg, 10**18, received=5.0) == 5.0

@@ -73,13 +73,18 @@ def test_a_walk_command_replaces_a_twist_not_yet_taken():
     while t < t0 + SLOT - 0.1:
         t = round(t + DT, 9)
         core.tick(t)
-    core.on_twist(0.03, 0.0, 0.0, t)  # for the slot after the next one
-    core.submit('{"command": "walk", "steps": 1}', t)  # the next slot: 1 step, then stop
+    core.on_twist(0.03, 0.0, 0.0, t)  # kept for the slot after the next one
+    assert core.walk.inputs.later is not None
+    core.submit('{"command": "walk", "steps": 1, "stride": 0.02}', t)  # for the next slot
+    assert core.walk.inputs.later is None and core.walk.inputs.pending.stride == 0.02
+    strides = set()
     while core.state != STANDING:
         t = round(t + DT, 9)
         core.tick(t)
+        if core.walk_params is not None:
+            strides.add(round(core.walk_params.stride, 6))
         assert t < t0 + 10 * SLOT
-    assert core.walk.inputs.later is None
+    assert 0.03 not in strides and 0.02 in strides  # the twist's stride never walked
 
 
 def test_a_steering_navigator_never_makes_a_tick_plan_a_slot(monkeypatch):
