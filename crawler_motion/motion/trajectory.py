@@ -63,8 +63,10 @@ def sextic_coefficients(duration: float, s0: np.ndarray, v0: np.ndarray, a0: np.
         a1 * t * t - 2 * c2,
         s_mid - c0 - c1 / 2 - c2 / 4,
     ), axis=-1)
-    high = rhs @ _SEXTIC_INV.T
-    return np.concatenate((np.stack((c0, c1, c2), axis=-1), high), axis=-1)
+    out = np.empty((*rhs.shape[:-1], 7))
+    out[..., 0], out[..., 1], out[..., 2] = c0, c1, c2
+    out[..., 3:] = rhs @ _SEXTIC_INV.T
+    return out
 
 
 def quartic_coefficients(duration: float, s0: np.ndarray, v0: np.ndarray, s1: np.ndarray,
@@ -144,9 +146,10 @@ class Piecewise:
         self.durations = np.array([seg.duration for seg in segments])
         self.breaks = t0 + np.concatenate(([0.0], np.cumsum(self.durations)))
         self.phases: tuple[str, ...] = tuple(seg.phase for seg in segments)
-        padded = [np.pad(seg.coeffs, ((0, 0), (0, degree + 1 - seg.coeffs.shape[-1])))
-                  for seg in segments]
-        self.coeffs = np.stack(padded)  # (n_segments, dims, degree + 1)
+        coeffs = np.zeros((len(segments), next(iter(dims))[0], degree + 1))
+        for k, seg in enumerate(segments):  # lower degrees padded with zeros
+            coeffs[k, :, :seg.coeffs.shape[-1]] = seg.coeffs
+        self.coeffs = coeffs  # (n_segments, dims, degree + 1)
 
     @property
     def t0(self) -> float:
@@ -231,6 +234,8 @@ class SwingShape:
 #: By coefficient count n: the grids (k, j) of powers and the binomials C(k, j) (0 above k)
 #: of `restricted`'s change of variable.
 _POWER_GRID = {n: np.meshgrid(np.arange(n), np.arange(n), indexing="ij") for n in range(1, 9)}
+#: By coefficient count n: where j <= k, the exponents max(k - j, 0) and j (planned once).
+_POWERS = {n: (kk >= jj, np.maximum(kk - jj, 0), jj) for n, (kk, jj) in _POWER_GRID.items()}
 _BINOMIAL = {n: np.array([[math.comb(k, j) if j <= k else 0 for j in range(n)]
                           for k in range(n)], dtype=float) for n in range(1, 9)}
 
@@ -242,10 +247,8 @@ def restricted(segment: Segment, start: float, duration: float) -> Segment:
     c = segment.coeffs
     n = c.shape[-1]
     # (u0 + width v)^k = sum_j C(k, j) u0^(k-j) width^j v^j
-    k, j = _POWER_GRID[n]
-    with np.errstate(invalid="ignore"):  # 0^0 = 1 below the diagonal only
-        change = np.where(j <= k, _BINOMIAL[n] * float(u0) ** np.maximum(k - j, 0)
-                          * float(width) ** j, 0.0)
+    below, k_minus_j, j = _POWERS[n]
+    change = np.where(below, _BINOMIAL[n] * float(u0) ** k_minus_j * float(width) ** j, 0.0)
     return Segment(c @ change, _check_duration(duration), segment.phase)
 
 
