@@ -34,7 +34,7 @@ lint: $(STAMP)
 	$(PY) -m ruff check crawler_motion test
 
 bench: $(STAMP)
-	$(VENV)/bin/crawler-motion bench
+	$(VENV)/bin/crawler-motion bench $(if $(PEER),--peer $(PEER))
 	$(VENV)/bin/crawler-motion smoothness --out plots
 	$(VENV)/bin/crawler-motion bench --e2e
 	$(VENV)/bin/crawler-motion bench-mission

@@ -25,19 +25,18 @@ Rows:
 - CAN bus load at 1 Mbit/s: commands at 100, 200 and 500 Hz and the feedback at the simulated
   manager's rates, worst-case bit stuffing (`canbus.busload.frame_bits_worst_case`).
 
-Run: crawler-motion bench [--quick] [--config PATH]; crawler-motion bench --e2e [--quick] [...]
+- with ``--peer DIR``: StanfordQuadruped's ``Controller.run`` (trot) from its clone, the tick's
+  yardstick (`bench_peer`).
+
+Run: crawler-motion bench [--quick] [--config PATH] [--peer DIR]; crawler-motion bench --e2e
+[--quick] [...]
 """
 
 from __future__ import annotations
 
 import argparse
-import gc
 import math
-import statistics
 import sys
-import time
-from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -49,63 +48,26 @@ from crawler_motion.motion.gait import (
     WalkParams,
     check_trajectories,
     plan_walk,
-    standing_pose,
-    validate_params,
 )
+from crawler_motion.tools.bench_peer import (
+    CALIBRATED_RATIO,
+    PEER_RATIO,
+    TICK_TARGET_US,
+    PeerError,
+    load_peer,
+    target_lines,
+)
+from crawler_motion.tools.bench_planner import (
+    PLANNER_RATE,
+    calibrated_rows,
+    planner_rows,
+    side_by_side,
+)
+from crawler_motion.tools.bench_timing import Row, calls_scaled, measure, timer_overhead
 
-#: Median planner tick of the default walk the project aims at [us], and the most a tick with
-#: calibrated legs may take against it.
-TICK_TARGET_US = 10.0
-CALIBRATED_RATIO = 1.5
 #: Command rates of the bus-load table [Hz] and the bus bit rate [bit/s].
 COMMAND_RATES = (100.0, 200.0, 500.0)
 BITRATE = 1_000_000.0
-#: Planner tick rate of the planner row [Hz].
-PLANNER_RATE = 100.0
-
-
-@dataclass(frozen=True)
-class Row:
-    """One line of the timing table (``median``/``p99`` in us; None when skipped)."""
-
-    name: str
-    calls: int
-    median: float | None
-    p99: float | None
-    note: str = ""
-
-
-def measure(name: str, func: Callable[[], object], calls: int, warmup: int = 200,
-            note: str = "", between: Callable[[], object] | None = None) -> Row:
-    """Time ``func`` ``calls`` times (after ``warmup`` calls) with the GC disabled;
-    ``between`` (untimed) runs after every call."""
-    for _ in range(warmup):
-        func()
-        if between is not None:
-            between()
-    samples = [0] * calls
-    clock = time.perf_counter_ns
-    was_enabled = gc.isenabled()
-    gc.collect()
-    gc.disable()
-    try:
-        for i in range(calls):
-            start = clock()
-            func()
-            samples[i] = clock() - start
-            if between is not None:
-                between()
-    finally:
-        if was_enabled:
-            gc.enable()
-    samples.sort()
-    p99 = samples[min(calls - 1, math.ceil(0.99 * calls) - 1)]
-    return Row(name, calls, statistics.median(samples) / 1e3, p99 / 1e3, note)
-
-
-def timer_overhead() -> float:
-    """Median cost of an empty timed call [us]."""
-    return measure("", lambda: None, 20_000).median or 0.0
 
 
 def random_targets(cfg: Config, n: int, seed: int = 1) -> np.ndarray:
@@ -117,11 +79,6 @@ def random_targets(cfg: Config, n: int, seed: int = 1) -> np.ndarray:
     targets[..., 2] = np.maximum(targets[..., 2], feet[:, 2])
     inverse_kinematics(cfg.robot, targets)  # all valid, or this raises
     return targets
-
-
-def calls_scaled(calls: int, scale: float) -> int:
-    """``calls`` scaled by ``scale`` (at least 20)."""
-    return max(20, int(calls * scale))
 
 
 def ik_rows(cfg: Config, scale: float) -> list[Row]:
@@ -211,74 +168,6 @@ def timing_rows(cfg: Config, scale: float) -> list[Row]:
             *tick_rows(cfg, params, seq, scale)]
 
 
-def planner_rows(cfg: Config, scale: float) -> list[Row]:
-    """`PlannerCore.tick` while walking at `PLANNER_RATE`, as the node runs it (the next slot
-    planned by `PlannerCore.plan_ahead` right after a tick, outside the timed call), then the
-    same without planning ahead (the tick plans at the boundary), and `plan_ahead` itself."""
-    from crawler_motion.planner.core import PlannerCore
-
-    params = validate_params(WalkParams.defaults(cfg.gait), cfg)
-    n_groups = len(cfg.gait.gaits[params.gait])
-    slot_time = (params.swing_time + float(params.stance_time)) / n_groups  # type: ignore[arg-type]
-    calls = max(200, int(6000 * scale))
-    rows = []
-    for ahead in (True, False):
-        core = PlannerCore(cfg, PLANNER_RATE)
-        pose = standing_pose(cfg)
-        now = 0.0
-        core.set_measured(pose, now)
-        core.submit('{"command": "stand"}', now)
-        while core.state != "STANDING":
-            now += 1.0 / PLANNER_RATE
-            core.set_measured(pose, now)
-            core.tick(now)
-        core.submit('{"command": "walk"}', now)  # until stopped
-        clock = [now]
-        planning: list[int] = []
-
-        def tick(core: PlannerCore = core, clock: list[float] = clock) -> None:
-            clock[0] += 1.0 / PLANNER_RATE
-            core.tick(clock[0])
-
-        def plan(core: PlannerCore = core, planning: list[int] = planning) -> None:
-            t0 = time.perf_counter_ns()
-            if core.plan_ahead():
-                planning.append(time.perf_counter_ns() - t0)
-
-        slots = calls / (PLANNER_RATE * slot_time)
-        if ahead:
-            name = (f"planner tick (`PlannerCore.tick`, walking, {PLANNER_RATE:g} Hz, next "
-                    f"slot planned ahead between ticks, as the node does)")
-            note = f"{slots:.0f} slot boundaries in the run, all switched without planning"
-        else:
-            name = "planner tick without `plan_ahead` (the boundary tick plans the slot)"
-            note = (f"{slots:.0f} slot boundaries in the run (1 tick in "
-                    f"{PLANNER_RATE * slot_time:.0f}): they make the p99")
-        row = measure(name, tick, calls, warmup=100, between=plan if ahead else None)
-        if core.state != "WALKING":
-            note += f"; ended in {core.state}"
-        rows.append(Row(row.name, row.calls, row.median, row.p99, note))
-        if ahead and planning:
-            us = sorted(x / 1e3 for x in planning)
-            rows.append(Row("`PlannerCore.plan_ahead` (plan + check the next slot + its "
-                            "evaluator), once per slot", len(us), statistics.median(us),
-                            us[min(len(us) - 1, round(0.99 * (len(us) - 1)))],
-                            "runs in the planning thread, before the slot boundary"))
-    return rows
-
-
-def calibrated_rows(cfg: Config, scale: float) -> list[Row]:
-    """The planner tick (planned ahead) with every leg calibrated: synthetic assembly errors
-    (`calibration.synthetic.perturbed_robot`, seed 1)."""
-    from dataclasses import replace
-
-    from crawler_motion.calibration.synthetic import perturbed_robot
-
-    row = planner_rows(replace(cfg, robot=perturbed_robot(cfg.robot, 1)), scale)[0]
-    return [Row("planner tick, calibrated legs (Newton-refined IK, synthetic errors)",
-                row.calls, row.median, row.p99, row.note)]
-
-
 def bus_rows(cfg: Config) -> list[tuple[str, float, float, int, float]]:
     """(what, rate Hz, frames/s, worst-case bits per cycle, bus load %) rows."""
     from crawler_motion.canbus.busload import frame_bits_worst_case
@@ -342,20 +231,34 @@ def print_bus(rows: list[tuple[str, float, float, int, float]]) -> None:
           "counted.")
 
 
-def print_targets(rows: list[Row]) -> None:
+def print_targets(rows: list[Row], pair: tuple[Row, Row] | None, peer_problem: str) -> None:
+    """The verdicts: the tick and calibrated rows of the table, the ratio from ``pair`` (the
+    tick and the peer side by side; None: ``peer_problem`` says why)."""
     tick = next((r for r in rows if r.name.startswith("planner tick (")), None)
     cal = next((r for r in rows if r.name.startswith("planner tick, calibrated")), None)
-    if tick is None or cal is None or tick.median is None or cal.median is None:
+    if tick is None or tick.median is None:
         return
-    print(f"\n## Targets: planner tick (default walk) <= {TICK_TARGET_US:g} us median; "
-          f"calibrated legs <= {CALIBRATED_RATIO:g}x the nominal tick\n")
-    ratio = cal.median / tick.median
-    print(f"- planner tick: {tick.median:.1f} us (p99 {fmt(tick.p99)} us) -> "
-          + ("met" if tick.median <= TICK_TARGET_US else "NOT met"))
-    print(f"- calibrated legs: {cal.median:.1f} us = {ratio:.2f}x nominal -> "
-          + ("met" if ratio <= CALIBRATED_RATIO else "NOT met"))
-    print("- peer (StanfordQuadruped `Controller.run`, trot): not available here (none of "
-          "its code is in this package)")
+    print(f"\n## Targets: planner tick (default walk) <= {TICK_TARGET_US:g} us median and "
+          f">= {PEER_RATIO:g}x faster than the peer; calibrated legs <= {CALIBRATED_RATIO:g}x "
+          f"the nominal tick\n")
+    ours = None if pair is None else pair[0].median
+    peer = None if pair is None else pair[1].median
+    for line in target_lines(tick.median, tick.p99, None if cal is None else cal.median,
+                             peer, peer_problem, ours):
+        print(line)
+
+
+def peer_pair(cfg: Config, path: str | None, scale: float) -> tuple[tuple[Row, Row] | None,
+                                                                     str]:
+    """The tick and the peer side by side (`bench_planner.side_by_side`), or None and why
+    not."""
+    if path is None:
+        return None, "add it with --peer DIR, a clone of StanfordQuadruped"
+    try:
+        run = load_peer(path)
+    except PeerError as exc:
+        return None, str(exc)
+    return side_by_side(cfg, run, scale), ""
 
 
 def bench_e2e(quick: bool, options: list[str]) -> int:
@@ -378,6 +281,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--e2e", action="store_true",
                         help="end-to-end bench over the cross-process bus instead (further "
                              "options: crawler-motion bench --e2e --help)")
+    parser.add_argument("--peer", default=None, metavar="DIR",
+                        help="a clone of StanfordQuadruped: time its Controller.run (trot) in "
+                             "this process beside the planner tick (needs transforms3d)")
     args, rest = parser.parse_known_args(argv)
     if args.e2e:
         return bench_e2e(args.quick, rest)
@@ -390,8 +296,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = timing_rows(cfg, scale)
     rows.extend(planner_rows(cfg, scale))
     rows.extend(calibrated_rows(cfg, scale))
-    print_timing(rows, overhead)
-    print_targets(rows)
+    pair, peer_problem = peer_pair(cfg, args.peer, scale)
+    print_timing(rows if pair is None else [*rows, *pair], overhead)
+    print_targets(rows, pair, peer_problem)
     print_bus(bus_rows(cfg))
     return 0
 
