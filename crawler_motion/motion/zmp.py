@@ -34,6 +34,7 @@ knots).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -69,13 +70,20 @@ SETTLE_TIME = 0.3
 #: Multipliers of the sway terms tried in turn when the joint limits or rates refuse a slot:
 #: each gives a smaller sway that still starts from the last slot's state (C²).
 FALLBACK_SCALES: tuple[float, ...] = (1.0, 4.0, 16.0, 64.0)
+#: Knot-interval durations whose `_basis` is kept (a walk has a few; a new one drops the
+#: oldest).
+BASIS_CACHE = 256
 
 
+@functools.lru_cache(maxsize=BASIS_CACHE)
 def _basis(duration: float) -> np.ndarray:
     """``M`` ``(7, 7)``: sextic coefficients (normalised time) ``= M @ (s0, v0, a0, s1, v1,
-    a1, s_mid)`` for a segment of ``duration`` [s] (`trajectory.sextic_coefficients`)."""
+    a1, s_mid)`` for a segment of ``duration`` [s] (`trajectory.sextic_coefficients`).
+    Kept per duration (a walk's knot intervals repeat every slot); read-only."""
     eye = np.eye(7)
-    return sextic_coefficients(duration, *eye).T
+    m = sextic_coefficients(duration, *eye).T
+    m.flags.writeable = False
+    return m
 
 
 _POWERS = np.arange(7)
