@@ -11,10 +11,12 @@ finite or not unit (within `UNIT_TOLERANCE`); refusals are counted and logged.
 A slot after one without a sample follows the plane of the stance feet instead; a walk in the
 ``imu`` mode without a sample for `IMU_TIMEOUT` reports the IMU ``missing`` in
 ``planner_status`` (key ``imu``) with a warning in the log; the walk goes on.
-Samples arriving while the mode is not ``imu`` are counted and set aside without the core's
-lock. The topic is read by a thread of its own (`runtime.ros_reader.SubscriptionReader`): at
-the simulator's 100 Hz, through the executor each sample cost a wake-up and a rebuild of the
-wait set of every entity of the node (of both nodes in the composed controller).
+While the mode is not ``imu`` (the default) one sample is taken every `IMU_IDLE_PERIOD`,
+counted and set aside without the core's lock (the status still dates the IMU); the others
+wait in the subscription's queue and are dropped there. The topic is read by a thread of its
+own (`runtime.ros_reader.SubscriptionReader`): at the simulator's 100 Hz, through the
+executor each sample cost a wake-up and a rebuild of the wait set of every entity of the node
+(of both nodes in the composed controller).
 """
 
 from __future__ import annotations
@@ -45,6 +47,8 @@ IMU_TIMEOUT = 0.5
 IMU_FRAME = "base_link"
 #: Largest accepted deviation of the orientation quaternion's norm from 1.
 UNIT_TOLERANCE = 0.01
+#: While the attitude mode does not take the IMU, a sample is taken at most this often [s].
+IMU_IDLE_PERIOD = 1.0
 
 
 def imu_roll_pitch(msg: Imu) -> tuple[float, float]:
@@ -79,9 +83,10 @@ class ImuInput:
         self.samples = 0  # valid samples taken
         self.refused = 0  # invalid samples
         self._last = -math.inf  # steady time of the last valid sample [s]
+        self._taken = -math.inf  # steady time of the last sample taken [s]
         self._reader = SubscriptionReader(node, Imu, "imu", IMU_QOS,
                                           lambda msg, _info: self._on_imu(msg),
-                                          on_error=warn, name="planner-imu")
+                                          on_error=warn, name="planner-imu", when=self._taking)
 
     def start(self) -> None:
         """Start taking samples."""
@@ -91,7 +96,14 @@ class ImuInput:
         """Stop taking samples and destroy the subscription."""
         self._reader.close()
 
+    def _taking(self) -> bool:
+        """Every sample in the ``imu`` mode, else one every `IMU_IDLE_PERIOD` (reader
+        thread; the mode read without the lock: a flag)."""
+        return (self._wanted(self._core.walk.foothold)
+                or time.monotonic() - self._taken >= IMU_IDLE_PERIOD)
+
     def _on_imu(self, msg: Imu) -> None:
+        self._taken = time.monotonic()
         try:
             roll, pitch = imu_roll_pitch(msg)
         except CommandError as exc:

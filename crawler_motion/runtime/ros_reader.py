@@ -128,6 +128,8 @@ class SubscriptionReader:
                 self._callback(*taken)
             except Exception as exc:  # one bad message must not end the reader
                 self._on_error(f"{sub.topic_name} callback failed: {type(exc).__name__}: {exc}")
+            if self._when is not None and not self._when():
+                return  # the rest wait in the subscription's queue
 
 
 def _never(*_args: Any) -> None:

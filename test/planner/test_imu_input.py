@@ -3,10 +3,12 @@ the body from it in the ``imu`` attitude mode (in-process, over real topics)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import re
 import threading
+import time
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -23,7 +25,7 @@ from std_msgs.msg import String
 from crawler_motion.errors import CommandError
 from crawler_motion.model.config import load_config
 from crawler_motion.model.rotations import matrix_quaternion, rpy_matrix
-from crawler_motion.planner.imu_input import IMU_TIMEOUT, imu_roll_pitch
+from crawler_motion.planner.imu_input import IMU_IDLE_PERIOD, IMU_TIMEOUT, imu_roll_pitch
 from crawler_motion.planner.moves import sitting_pose
 from crawler_motion.planner.node import PlannerNode
 from crawler_motion.testing.polling import wait_until
@@ -99,12 +101,11 @@ class Probe(Node):
         return self.statuses[-1] if self.statuses else {}
 
 
-@pytest.fixture
-def stack() -> Iterator[tuple[PlannerNode, Probe]]:
+@contextlib.contextmanager
+def running(overrides: list[Parameter]) -> Iterator[tuple[PlannerNode, Probe]]:
     context = Context()
     rclpy.init(context=context)
-    planner = PlannerNode(context=context, parameter_overrides=[
-        Parameter("foothold_adapt", value=True), Parameter("attitude_mode", value="imu")])
+    planner = PlannerNode(context=context, parameter_overrides=overrides)
     probe = Probe(context)
     executors = [SingleThreadedExecutor(context=context) for _ in range(2)]
     executors[0].add_node(planner)
@@ -120,6 +121,24 @@ def stack() -> Iterator[tuple[PlannerNode, Probe]]:
         planner.destroy_node()
         probe.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+@pytest.fixture
+def stack() -> Iterator[tuple[PlannerNode, Probe]]:
+    with running([Parameter("foothold_adapt", value=True),
+                  Parameter("attitude_mode", value="imu")]) as nodes:
+        yield nodes
+
+
+def test_without_the_imu_mode_a_sample_a_second_is_taken_and_all_of_them_with_it():
+    with running([]) as (planner, _probe):
+        time.sleep(2.5)  # 250 samples published
+        idle = planner.imu.samples
+        assert 1 <= idle <= 2.5 / IMU_IDLE_PERIOD + 1
+        assert planner.set_parameters([Parameter("foothold_adapt", value=True),
+                                       Parameter("attitude_mode", value="imu")])[0].successful
+        time.sleep(1.0)
+        assert planner.imu.samples - idle >= 50
 
 
 def until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
