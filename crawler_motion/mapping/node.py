@@ -13,14 +13,18 @@ navigator checks (``map_max_age``); the header stamp is the publication time. On
 ``/diagnostics`` gets the status ``terrain_mapper: terrain map`` (hardware_id
 ``crawler_mapper``): scans fused, skips by reason (``skipped_<REASON>``), odometry refusals
 by verdict (``odom_<VERDICT>``), the content's age; WARN when no scan was fused in the last
-period while scans were skipped. All the work is in `mapper.TerrainMapper`.
+period while scans were skipped. All the work is in `mapper.TerrainMapper`; ``odom`` is taken
+by a thread of its own (`runtime.ros_reader.SubscriptionReader`), the rest by the executor,
+under one lock.
 """
 
 from __future__ import annotations
 
 import sys
+import threading
 from collections import Counter
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -42,6 +46,7 @@ from crawler_motion.runtime.log import Throttle
 from crawler_motion.runtime.ros_diagnostics import counters_array
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor
+from crawler_motion.runtime.ros_reader import SubscriptionReader
 
 NAME = "terrain_mapper"
 #: A skip or refusal reason is logged at most once per this period [s] (each reason apart).
@@ -79,7 +84,13 @@ class TerrainMapperNode(Node):
         self.guard = CallbackGuard(self.get_logger(), alive=self.context.ok)
         self.create_subscription(PointCloud2, "scan", self.guard.wrap("scan", self._on_scan),
                                  qos_profile_sensor_data)
-        self.create_subscription(Odometry, "odom", self.guard.wrap("odom", self._on_odom), 20)
+        # odom (50 Hz in the simulator) by a thread of its own: through the executor each
+        # sample cost a wake-up and a wait-set rebuild; ``_lock`` guards the mapper
+        self._lock = threading.Lock()
+        self._odom = SubscriptionReader(self, Odometry, "odom", 20,
+                                        self.guard.wrap("odom", lambda m, _: self._on_odom(m)),
+                                        on_error=self.get_logger().error, name="mapper-odom")
+        self._odom.start()
         self._throttle = Throttle(LOG_PERIOD)  # warnings by reason
         self.create_timer(1.0 / values["publish_rate"], self._publish)
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -93,10 +104,20 @@ class TerrainMapperNode(Node):
             self.get_logger().warning(
                 f"scan skipped: {reason.value} ({self.mapper.skipped[reason]} so far)")
 
+    def destroy_node(self) -> None:
+        """Stop the odometry reader, then the node."""
+        self._odom.close()
+        super().destroy_node()
+
     def _on_odom(self, msg: Odometry) -> None:
-        before = Counter(self.mapper.skipped)
+        pose = odometry_pose(msg)
         now = self.get_clock().now().nanoseconds * 1e-9
-        verdict = self.mapper.add_odometry(odometry_pose(msg), now)
+        with self._lock:
+            self._take_odometry(pose, now)
+
+    def _take_odometry(self, pose: Any, now: float) -> None:
+        before = Counter(self.mapper.skipped)
+        verdict = self.mapper.add_odometry(pose, now)
         if verdict is OdometryVerdict.RESET:
             self.get_logger().error(f"odom: {verdict.value}")
         elif verdict is not None and self._throttle.allow(verdict):
@@ -108,13 +129,14 @@ class TerrainMapperNode(Node):
 
     def _on_scan(self, msg: PointCloud2) -> None:
         points = read_xyz(msg)
-        if msg.header.frame_id != self.scanner_frame or points is None:
-            self.mapper.skipped[SkipReason.MALFORMED] += 1
-            self._skip(SkipReason.MALFORMED)
-            return
-        before = Counter(self.mapper.skipped)
-        self.mapper.add_scan(points, stamp_seconds(msg.header.stamp))
-        self._report(before)
+        with self._lock:
+            if msg.header.frame_id != self.scanner_frame or points is None:
+                self.mapper.skipped[SkipReason.MALFORMED] += 1
+                self._skip(SkipReason.MALFORMED)
+                return
+            before = Counter(self.mapper.skipped)
+            self.mapper.add_scan(points, stamp_seconds(msg.header.stamp))
+            self._report(before)
 
     def _report(self, before: Counter[SkipReason]) -> None:
         """Log every reason counted since ``before``."""
@@ -123,6 +145,10 @@ class TerrainMapperNode(Node):
                 self._skip(reason)
 
     def _publish_diagnostics(self) -> None:
+        with self._lock:
+            self._diagnose()
+
+    def _diagnose(self) -> None:
         m = self.mapper
         counted = (m.scans_fused, sum(m.skipped.values()))
         starved = counted[0] == self._counted[0] and counted[1] > self._counted[1]
@@ -139,6 +165,10 @@ class TerrainMapperNode(Node):
                                                  "warn" if starved else "ok", message, values))
 
     def _publish(self) -> None:
+        with self._lock:
+            self._publish_map()
+
+    def _publish_map(self) -> None:
         stamp = self.get_clock().now().to_msg()
         g = self.mapper.grid
         grid = OccupancyGrid()
