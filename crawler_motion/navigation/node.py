@@ -140,11 +140,13 @@ class NavigatorNode(Node):
                                      qos)
         self._joints_at = -float("inf")  # steady time of the last joint state taken [s]
         self._readers = (  # the two fast streams outside the executor (`SubscriptionReader`)
-            SubscriptionReader(self, Odometry, "odom", 20, lambda m, _: self._on_odom(m),
+            SubscriptionReader(self, Odometry, "odom", 20,
+                               self.guard.wrap("odom", lambda m, _: self._on_odom(m)),
                                on_error=self._reader_error, name="navigator-odom"),
             SubscriptionReader(self, JointState, "joint_states", JOINTS_QOS,
-                               lambda m, _: self._on_joints(m), on_error=self._reader_error,
-                               name="navigator-joints", when=self._joints_due))
+                               self.guard.wrap("joint_states", lambda m, _: self._on_joints(m)),
+                               on_error=self._reader_error, name="navigator-joints",
+                               when=self._joints_due))
         for reader in self._readers:
             reader.start()
         self.create_service(Trigger, "~/cancel", self._on_cancel)
