@@ -22,6 +22,7 @@ ROS_MODULES = {"planner/node.py", "driver/node.py", "driver/rclpy_workarounds.py
                "runtime/ros_parameters.py", "runtime/ros_main.py", "sim/seabed/node.py",
                "runtime/ros_diagnostics.py",
                "mapping/node.py", "navigation/node.py", "navigation/mission_topics.py",
+               "navigation/body_inputs.py",
                "recording/recorder.py",
                "recording/view.py"}
 ROS_LAYERS = {"testing", "tools"}

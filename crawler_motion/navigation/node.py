@@ -12,10 +12,8 @@ publishes the twist on ``cmd_vel``. Publishes ``navigation_status`` (std_msgs/St
 transient local) on every change and once a second. Leaving ACTIVE (arrived, failed,
 cancelled) sends a zero twist: the planner stops the walk into standing. A goal in another
 frame or not finite is refused (counted, logged, in the status) and changes nothing. Until
-joint_states arrive the virtual radius is the envelope radius; it is recomputed from the newest
-state at most every `JOINTS_PERIOD`. ``odom`` and ``joint_states`` are taken by threads of
-their own (`runtime.ros_reader.SubscriptionReader`), not through the executor: at 50 and
-100 Hz their wake-ups and wait-set rebuilds were two thirds of the node's CPU.
+joint_states arrive the virtual radius is the envelope radius; ``odom`` and ``joint_states``
+are taken by threads of their own (`body_inputs.BodyInputs`), not through the executor.
 
 An ACTIVE goal is *held* (a zero twist: the robot stands; the reason in the status; checked on
 every map and every `WATCH_PERIOD`) while the odometry is older than ``odom_timeout``, while
@@ -42,19 +40,18 @@ from typing import Any
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, Twist, Vector3
-from nav_msgs.msg import OccupancyGrid, Odometry
+from nav_msgs.msg import OccupancyGrid
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import JointState, PointCloud2
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from crawler_motion.errors import CommandError
 from crawler_motion.mapping.clouds import read_float32
 from crawler_motion.model.config import load_config
-from crawler_motion.model.joint_state import validate_joint_state
 from crawler_motion.navigation.apf_navigator import ApfNavigator, FollowCommand
-from crawler_motion.navigation.body import envelope_radius, virtual_radius
+from crawler_motion.navigation.body_inputs import BodyInputs
 from crawler_motion.navigation.command_log import CommandLog
 from crawler_motion.navigation.guards import (
     MapFreshness,
@@ -65,7 +62,6 @@ from crawler_motion.navigation.guards import (
 from crawler_motion.navigation.methods import make_navigator
 from crawler_motion.navigation.mission_topics import MissionTopics
 from crawler_motion.navigation.navigator import Method, NavState, Output, goal_error
-from crawler_motion.navigation.odometry_input import OdometryInput
 from crawler_motion.navigation.parameters import NAVIGATOR_PARAMETERS, navigator_settings
 from crawler_motion.navigation.planner_watch import RefusalWatch
 from crawler_motion.navigation.view import view_from_grid
@@ -73,7 +69,6 @@ from crawler_motion.runtime.callback_guard import CallbackGuard
 from crawler_motion.runtime.ros_diagnostics import counters_array
 from crawler_motion.runtime.ros_main import run_node
 from crawler_motion.runtime.ros_parameters import descriptor, parameter_values
-from crawler_motion.runtime.ros_reader import SubscriptionReader
 
 NAME = "navigator"
 STATUS_PERIOD = 1.0  # [s]
@@ -86,11 +81,6 @@ FOREIGN_HOLD = 1.0
 #: Period of the ``/diagnostics`` status [s].
 DIAGNOSTICS_PERIOD = 1.0
 HARDWARE_ID = "crawler_navigator"
-#: The virtual radius is recomputed from the newest joint state at most this often [s] (the
-#: driver publishes 100 Hz; the map cycles run a few times a second).
-JOINTS_PERIOD = 0.1
-#: joint_states: best effort, the newest state only.
-JOINTS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
 def read_heights(msg: PointCloud2) -> np.ndarray | None:
@@ -118,14 +108,12 @@ class NavigatorNode(Node):
         self._held_cause: str | None = None  # of the hold in force (logged once)
         # steady time of the last cmd_vel twist of another node [s], and how many were seen
         self._foreign_at, self.foreign_twists = -float("inf"), 0
-        self.radius = envelope_radius(self.cfg.robot)
         self._heights: np.ndarray | None = None
         self._last_status = ""
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._cmd = self.create_publisher(Twist, "cmd_vel", 10)
         self._status = self.create_publisher(String, "navigation_status", latched)
         self.guard = CallbackGuard(self.get_logger(), alive=self.context.ok)
-        self.odom = OdometryInput(self.get_logger())
         self._planner = RefusalWatch()
         self.commands = CommandLog(self.get_logger(), REFUSAL_STATUS_PERIOD)
         for kind, topic, callback, qos in (
@@ -138,17 +126,10 @@ class NavigatorNode(Node):
             on_error = self._fail_all if topic == "terrain_map" else None
             self.create_subscription(kind, topic, self.guard.wrap(topic, callback, on_error),
                                      qos)
-        self._joints_at = -float("inf")  # steady time of the last joint state taken [s]
-        self._readers = (  # the two fast streams outside the executor (`SubscriptionReader`)
-            SubscriptionReader(self, Odometry, "odom", 20,
-                               self.guard.wrap("odom", lambda m, _: self._on_odom(m)),
-                               on_error=self._reader_error, name="navigator-odom"),
-            SubscriptionReader(self, JointState, "joint_states", JOINTS_QOS,
-                               self.guard.wrap("joint_states", lambda m, _: self._on_joints(m)),
-                               on_error=self._reader_error, name="navigator-joints",
-                               when=self._joints_due))
-        for reader in self._readers:
-            reader.start()
+        self.body = BodyInputs(self, self.cfg.robot, self.guard.wrap,
+                               lambda: self.get_clock().now().nanoseconds * 1e-9)
+        self.odom = self.body.odom
+        self.body.start()
         self.create_service(Trigger, "~/cancel", self._on_cancel)
         self.missions = MissionTopics(self, self.nav, self.cfg.tool_width, lambda: self.odom.pose,
                                       self._refuse, self._planner.start)
@@ -212,9 +193,6 @@ class NavigatorNode(Node):
             self.get_logger().error(f"goal failed: {reason}")
         self._publish_status()  # a foreign twist counted changes it too
 
-    def _on_odom(self, msg: Odometry) -> None:
-        self.odom.take(msg, self.get_clock().now().nanoseconds * 1e-9)
-
     def _fail_all(self, why: str) -> None:
         """A map cycle raised (a defect the guard caught): fail the goal and the mission, stop."""
         self.missions.cancel(f"navigator error: {why}")
@@ -222,27 +200,10 @@ class NavigatorNode(Node):
         self._stop()
         self._publish_status(force=True)
 
-    def _reader_error(self, text: str) -> None:
-        self.get_logger().error(text)
-
-    def _joints_due(self) -> bool:
-        """True when the virtual radius is `JOINTS_PERIOD` old: take the newest state."""
-        return time.monotonic() - self._joints_at >= JOINTS_PERIOD
-
     def destroy_node(self) -> None:
         """Stop the reader threads, then the node."""
-        for reader in self._readers:
-            reader.close()
+        self.body.close()
         super().destroy_node()
-
-    def _on_joints(self, msg: JointState) -> None:
-        self._joints_at = time.monotonic()
-        try:
-            q = validate_joint_state(msg.name, msg.position, msg.velocity,
-                                     self.cfg.robot.joint_names)
-        except CommandError:
-            return
-        self.radius = virtual_radius(self.cfg.robot, q)
 
     def _on_heights(self, msg: PointCloud2) -> None:
         self._heights = read_heights(msg)
@@ -342,16 +303,16 @@ class NavigatorNode(Node):
             return
         if nav.state is NavState.ACTIVE:
             nav.reason = ""  # a hold's reason (a failure's stays for the mission to report)
-        disc = self.radius + nav.settings.margin
+        disc = self.body.radius + nav.settings.margin
         ended = self.missions.before(self.odom.pose, view, disc)
         command = (nav.goal, getattr(nav, "command", None))
-        out = nav.step(self.odom.pose, self.radius, view, time.monotonic())
+        out = nav.step(self.odom.pose, self.body.radius, view, time.monotonic())
         ended = self.missions.after(view, disc) or ended
         if nav.state is NavState.ACTIVE and (nav.goal is not command[0]
                                              or getattr(nav, "command", None) is not command[1]):
             # the mission sent the next waypoint in the same cycle: walk on to it, no stop
             # (only then: a navigator waiting with a zero twist is not planned twice a cycle)
-            out = nav.step(self.odom.pose, self.radius, view, time.monotonic())
+            out = nav.step(self.odom.pose, self.body.radius, view, time.monotonic())
         elif nav.state is not NavState.ACTIVE and out.twist is not None and any(out.twist):
             out = Output(twist=(0.0, 0.0, 0.0), changed=True)  # the mission dropped the goal
         if ended and out.twist is None:
@@ -363,7 +324,7 @@ class NavigatorNode(Node):
         self._publish_status()
 
     def _publish_status(self, force: bool = False) -> None:
-        status = {**self._nav.status(), "radius": round(self.radius, 4),
+        status = {**self._nav.status(), "radius": round(self.body.radius, 4),
                   "refusals": self.commands.refusals, "last_refusal": self.commands.last_refusal,
                   "foreign_twists_refused": self._planner.foreign,
                   "last_foreign_twist": self._planner.last_foreign,
