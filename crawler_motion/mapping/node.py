@@ -24,7 +24,6 @@ import sys
 import threading
 from collections import Counter
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -35,7 +34,7 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2, PointField
 
 from crawler_motion.mapping.clouds import read_float32
-from crawler_motion.mapping.mapper import SkipReason, TerrainMapper
+from crawler_motion.mapping.mapper import Pose, SkipReason, TerrainMapper
 from crawler_motion.mapping.odometry import OdometryVerdict
 from crawler_motion.mapping.odometry_pose import odometry_pose, stamp_seconds
 from crawler_motion.mapping.parameters import mapper_parameters, mapper_settings
@@ -115,7 +114,7 @@ class TerrainMapperNode(Node):
         with self._lock:
             self._take_odometry(pose, now)
 
-    def _take_odometry(self, pose: Any, now: float) -> None:
+    def _take_odometry(self, pose: Pose, now: float) -> None:
         before = Counter(self.mapper.skipped)
         verdict = self.mapper.add_odometry(pose, now)
         if verdict is OdometryVerdict.RESET:
@@ -146,9 +145,10 @@ class TerrainMapperNode(Node):
 
     def _publish_diagnostics(self) -> None:
         with self._lock:
-            self._diagnose()
+            array = self._diagnose()
+        self._diagnostics.publish(array)  # outside the lock: a publish may wait on discovery
 
-    def _diagnose(self) -> None:
+    def _diagnose(self) -> DiagnosticArray:
         m = self.mapper
         counted = (m.scans_fused, sum(m.skipped.values()))
         starved = counted[0] == self._counted[0] and counted[1] > self._counted[1]
@@ -161,14 +161,17 @@ class TerrainMapperNode(Node):
                   **{f"odom_{v.name}": m.odometry_refused[v] for v in OdometryVerdict
                      if v is not OdometryVerdict.ACCEPT}}
         message = "scans skipped, none fused in the last period" if starved else "ok"
-        self._diagnostics.publish(counters_array(self, "terrain map", HARDWARE_ID,
-                                                 "warn" if starved else "ok", message, values))
+        return counters_array(self, "terrain map", HARDWARE_ID, "warn" if starved else "ok",
+                              message, values)
 
     def _publish(self) -> None:
         with self._lock:
-            self._publish_map()
+            grid, heights = self._map_messages()
+        self._map.publish(grid)  # outside the lock: a publish may wait on discovery
+        self._heights.publish(heights)
 
-    def _publish_map(self) -> None:
+    def _map_messages(self) -> tuple[OccupancyGrid, PointCloud2]:
+        """``terrain_map`` and ``terrain_heights`` of the map now (the lock held)."""
         stamp = self.get_clock().now().to_msg()
         g = self.mapper.grid
         grid = OccupancyGrid()
@@ -183,7 +186,6 @@ class TerrainMapperNode(Node):
         grid.info.origin.position.x, grid.info.origin.position.y = (float(v) for v in g.origin)
         grid.info.origin.orientation.w = 1.0
         grid.data = self.mapper.occupancy().ravel().tolist()
-        self._map.publish(grid)
         xs, ys = g.centres()
         known = g.known
         cloud = np.column_stack((xs[known], ys[known], g.height[known], g.variance[known]))
@@ -195,7 +197,7 @@ class TerrainMapperNode(Node):
         msg.is_bigendian, msg.is_dense = sys.byteorder == "big", True
         msg.point_step, msg.row_step = 16, 16 * len(cloud)
         msg.data = np.ascontiguousarray(cloud, dtype=np.float32).tobytes()
-        self._heights.publish(msg)
+        return grid, msg
 
 
 def main(args: Sequence[str] | None = None) -> None:

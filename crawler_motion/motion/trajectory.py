@@ -231,11 +231,10 @@ class SwingShape:
     degree: int = 6  # 6 = sextic, 4 = the study's quartic (v = 0 junctions only)
 
 
-#: By coefficient count n: the grids (k, j) of powers and the binomials C(k, j) (0 above k)
-#: of `restricted`'s change of variable.
-_POWER_GRID = {n: np.meshgrid(np.arange(n), np.arange(n), indexing="ij") for n in range(1, 9)}
-#: By coefficient count n: where j <= k, the exponents max(k - j, 0) and j (planned once).
-_POWERS = {n: (kk >= jj, np.maximum(kk - jj, 0), jj) for n, (kk, jj) in _POWER_GRID.items()}
+#: By coefficient count n, over the grid (k, j) of `restricted`'s change of variable: where
+#: j <= k, the exponents max(k - j, 0) and j; and the binomials C(k, j) (0 above k).
+_POWERS = {n: (kk >= jj, np.maximum(kk - jj, 0), jj) for n, (kk, jj) in (
+    (n, np.meshgrid(np.arange(n), np.arange(n), indexing="ij")) for n in range(1, 9))}
 _BINOMIAL = {n: np.array([[math.comb(k, j) if j <= k else 0 for j in range(n)]
                           for k in range(n)], dtype=float) for n in range(1, 9)}
 
