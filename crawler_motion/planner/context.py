@@ -3,13 +3,16 @@ journal."""
 
 from __future__ import annotations
 
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 
 from crawler_motion.errors import CommandError
 from crawler_motion.motion.body_pose import NEUTRAL, BodyPose
 from crawler_motion.planner.state import IDLE, PlannerState
+
+if TYPE_CHECKING:
+    from crawler_motion.planner.next_slot import Slowed
 
 #: Events kept for `Journal.pop_events` (the oldest are dropped).
 MAX_EVENTS = 100
@@ -74,6 +77,8 @@ class Journal:
         self.refused_twist: list[float] | None = None
         self.last_event: str | None = None
         self._events: list[tuple[str, str]] = []
+        self.slowed_slots = 0  # slots planned slower than asked (`next_slot.SLOWED_SHARES`)
+        self.slowed_share = 1.0  # the share of the asked stride of the slot last planned
 
     def touch(self, now: float) -> None:
         """Mark a status change at steady time ``now`` [s]."""
@@ -85,6 +90,22 @@ class Journal:
         self.last_event = message
         self._events.append((level, message))
         del self._events[:-MAX_EVENTS]
+
+    def slowed(self, slowed: Slowed | None, now: float) -> None:
+        """The slot planned at ``now`` [s] was slowed (``slowed``) or not (None): counted, and
+        an event when the walk becomes slower than asked or returns to the asked stride."""
+        share = 1.0 if slowed is None else slowed.share
+        if share == self.slowed_share:
+            self.slowed_slots += slowed is not None
+            return
+        self.touch(now)
+        if slowed is None:
+            self.event("info", "slot at the asked stride and turn again")
+        else:
+            self.slowed_slots += 1
+            self.event("warn", f"slot slowed to {share:.0%} of the asked stride and turn: "
+                               f"{slowed.why}")
+        self.slowed_share = share
 
     def record_refusal(self, reason: str, now: float) -> None:
         """Count and report a refusal at ``now`` [s]."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from crawler_motion.errors import GaitError, KinematicsError, TrajectoryError
 from crawler_motion.model.config import RobotConfig
@@ -14,9 +14,43 @@ from crawler_motion.planner.footholds import SlotFacts, slot_facts
 #: `PlannerCore.plan_ahead(now)` plans the next slot at most this long before its boundary [s].
 PLAN_AHEAD_HORIZON = 0.2
 
+#: *Rule*: a ``cmd_vel`` walk's next slot that the limits refuse at the asked stride and turn
+#: (a heading that swings between slots can carry a stance foot past its reach) is planned
+#: again with both times each of these shares, in order, before the walk stops into standing.
+#: The slowed slot is stated in ``planner_status`` (``slowed_share``, ``slowed_slots``); the
+#: next slot asks for the twist's own stride again. A ``walk`` command's steps are never
+#: shortened: it stops.
+SLOWED_SHARES = (0.6, 0.3)
+
+
+@dataclass(frozen=True)
+class Slowed:
+    """A slot planned at ``share`` of the asked stride and turn, because of ``why``."""
+
+    share: float
+    why: str
+
 
 def plan_next(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | None,
-              stopping: bool) -> tuple[Slot | None, GaitSequencer | None, str | None]:
+              stopping: bool, slow: bool = False
+              ) -> tuple[Slot | None, GaitSequencer | None, str | None, Slowed | None]:
+    """`plan_checked`, and with ``slow`` (a ``cmd_vel`` walk) a refused slot that does not
+    stop planned again at each of `SLOWED_SHARES` of its stride and turn: ``(slot, seq,
+    None, Slowed)`` for the first that passes, else the asked slot's refusal."""
+    slot, seq, error = plan_checked(robot, copy.copy(trial), params, stopping)
+    if error is None or not slow or stopping:
+        return slot, seq, error, None
+    asked = params if params is not None else trial.params
+    for share in SLOWED_SHARES:
+        slower = replace(asked, stride=asked.stride * share, turn=asked.turn * share)
+        slot, seq, retry = plan_checked(robot, copy.copy(trial), slower, stopping)
+        if retry is None:
+            return slot, seq, None, Slowed(share, error)
+    return None, None, error, None
+
+
+def plan_checked(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | None,
+                 stopping: bool) -> tuple[Slot | None, GaitSequencer | None, str | None]:
     """Plan and check the next slot on ``trial`` (a copy of the walk's sequencer).
 
     A slot that does not stop is taken only if the first slot of a stop after it passes the
@@ -54,6 +88,7 @@ class AheadPlan:
     error: str | None
     track: Track | None
     facts: SlotFacts | None = None  # what the footholds need of the slot (`slot_facts`)
+    slowed: Slowed | None = None  # planned slower than asked (`plan_next`)
 
     def matches(self, after: Slot | None, pending: WalkParams | None, stopping: bool) -> bool:
         """True if planned after slot ``after`` with these parameters and stop flag."""
@@ -70,13 +105,15 @@ class AheadJob:
     after: Slot
     pending: WalkParams | None
     stopping: bool
+    slow: bool = False  # a cmd_vel walk: a refused slot may be slowed (`plan_next`)
 
     def run(self) -> AheadPlan:
         """Plan, check and prepare the evaluator and the footholds' facts of the next slot
-        (~2-10 ms)."""
-        slot, seq, error = plan_next(self.robot, self.seq, self.pending, self.stopping)
+        (~2-10 ms; a slowed slot up to three times that)."""
+        slot, seq, error, slowed = plan_next(self.robot, self.seq, self.pending, self.stopping,
+                                             self.slow)
         ready = slot is not None and error is None
         track = Track(slot.legs) if ready else None
         facts = slot_facts(slot) if ready else None
         return AheadPlan(self.after, self.pending, self.stopping, slot, seq, error, track,
-                         facts)
+                         facts, slowed)

@@ -35,6 +35,8 @@ def planner_status(core: PlannerCore, late_ticks: int, stand_height: float) -> d
         "twist_refusals": journal.twist_refusals,
         "refused_twist": journal.refused_twist,
         "last_event": journal.last_event,
+        "slowed_slots": journal.slowed_slots,
+        "slowed_share": journal.slowed_share,
         "late_ticks": late_ticks,
         "resuming": core.resumer.active,
         "interruptions": core.resumer.interruptions,

@@ -13,7 +13,13 @@ from crawler_motion.motion.fastpath import FastKinematics, Track
 from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams, check_trajectories
 from crawler_motion.planner.context import JointTarget, PlannerContext
 from crawler_motion.planner.footholds import Footholds, SlotFacts
-from crawler_motion.planner.next_slot import PLAN_AHEAD_HORIZON, AheadJob, AheadPlan, plan_next
+from crawler_motion.planner.next_slot import (
+    PLAN_AHEAD_HORIZON,
+    AheadJob,
+    AheadPlan,
+    Slowed,
+    plan_next,
+)
 from crawler_motion.planner.slot_inputs import SlotInputs
 from crawler_motion.planner.state import HOLDING, STANDING, STOPPING, WALK_STATES, WALKING
 
@@ -88,12 +94,11 @@ class WalkController:
         except (GaitError, KinematicsError, TrajectoryError) as exc:
             self.ctx.journal.refuse(f"walk refused: {exc}", now)
         self.clear()
-        self.seq = seq
-        self.params = params
-        self.steps_total = steps
+        self.seq, self.params, self.steps_total = seq, params, steps
         self.steady_planned = self.steady_done = 0
         self.groups = seq.n_groups
         self.source = source
+        self.ctx.journal.slowed_share = 1.0
         self.ctx.state = WALKING
         self.foothold.start(self.ctx.hold)
         self._commit(slot, seq, now)
@@ -129,9 +134,9 @@ class WalkController:
         self.inputs.take_twist(params, self.params, to_boundary)
 
     def _try_slot(self, params: WalkParams | None, stopping: bool
-                  ) -> tuple[Slot | None, GaitSequencer | None, str | None]:
+                  ) -> tuple[Slot | None, GaitSequencer | None, str | None, Slowed | None]:
         assert self.seq is not None
-        return plan_next(self.robot, copy.copy(self.seq), params, stopping)
+        return plan_next(self.robot, self.seq, params, stopping, self.source == "cmd_vel")
 
     def _plan_slot(self, t0: float) -> bool:
         """Plan, check and start the next slot at ``t0``; False if none started."""
@@ -145,14 +150,16 @@ class WalkController:
         track = facts = None
         if ahead is not None and ahead.matches(self.slot, pending, stopping):
             slot, seq, error, track = ahead.slot, ahead.seq, ahead.error, ahead.track
-            facts = ahead.facts
+            facts, slowed = ahead.facts, ahead.slowed
         else:
-            slot, seq, error = self._try_slot(pending, stopping)
+            slot, seq, error, slowed = self._try_slot(pending, stopping)
+        if not stopping:
+            self.ctx.journal.slowed(slowed, t0)
         if error is not None:
             track = facts = None
             self.ctx.journal.event("error", f"slot check failed: {error}; stopping into "
                                             f"standing")
-            slot, seq, error = self._try_slot(None, True)
+            slot, seq, error, _ = self._try_slot(None, True)
             if error is not None:
                 self.enter_holding(t0, f"cannot stop either ({error})", self._slot_end_pose())
                 return False
@@ -263,7 +270,8 @@ class WalkController:
         stopping, pending = self.next_inputs()
         if self.ahead is not None and self.ahead.matches(self.slot, pending, stopping):
             return None
-        return AheadJob(self.robot, copy.copy(self.seq), self.slot, pending, stopping)
+        return AheadJob(self.robot, copy.copy(self.seq), self.slot, pending, stopping,
+                        self.source == "cmd_vel")
 
     def store_ahead(self, ahead: AheadPlan) -> bool:
         """Keep a plan made by `AheadJob.run`; False (dropped) if the slot it follows is no

@@ -349,7 +349,8 @@ def test_walk_refused_as_a_whole_when_it_cannot_be_executed():
     assert clock.core.state == STANDING
 
 
-def test_a_failing_slot_stops_the_walk():
+def test_a_failing_slot_stops_the_walk(monkeypatch):
+    monkeypatch.setattr(next_slot, "SLOWED_SHARES", ())  # no slower slot passes either
     clock = standing(cmd_vel_timeout=5.0)
     clock.core.on_twist(0.0, 0.066, 0.0, clock.t)  # sideways: fine
     t0 = clock.t
@@ -363,6 +364,29 @@ def test_a_failing_slot_stops_the_walk():
     assert clock.until(STANDING) - t0 == pytest.approx(3 * SLOT, abs=DT)
     feet = forward_kinematics(ROBOT, positions(clock)[-1].reshape(4, 3))
     np.testing.assert_allclose(feet, ROBOT.standing_feet(), atol=1e-9)
+
+
+def test_a_failing_cmd_vel_slot_is_slowed_and_stated():
+    """The twist of the test above with `next_slot.SLOWED_SHARES`: the slot is walked at a
+    share of the stride, stated in the status, and a feasible twist is walked as asked again."""
+    clock = standing(cmd_vel_timeout=5.0)
+    clock.core.on_twist(0.0, 0.066, 0.0, clock.t)
+    clock.run(0.9)
+    asked = 0.133 * float(clock.core.walk_params.stance_time)
+    clock.core.on_twist(0.0, 0.133, 0.0, clock.t)  # within the limits, out of reach
+    clock.run(0.35)  # boundary at 1.2
+    status = clock.core.status()
+    assert clock.core.state == WALKING
+    assert status["slowed_share"] in next_slot.SLOWED_SHARES
+    assert status["slowed_slots"] == 1
+    assert status["last_event"].startswith(f"slot slowed to {status['slowed_share']:.0%}")
+    assert "reachable" in status["last_event"]
+    assert clock.core.walk_params.stride == pytest.approx(asked * status["slowed_share"])
+    clock.core.on_twist(0.0, 0.066, 0.0, clock.t)
+    clock.run(2 * SLOT)
+    status = clock.core.status()
+    assert (status["slowed_share"], status["slowed_slots"]) == (1.0, 1)
+    assert clock.core.state == WALKING
 
 
 def test_holding_when_not_even_a_stop_slot_passes(monkeypatch):
