@@ -16,10 +16,11 @@ PLAN_AHEAD_HORIZON = 0.2
 
 #: *Rule*: a ``cmd_vel`` walk's next slot that the limits refuse at the asked stride and turn
 #: (a heading that swings between slots can carry a stance foot past its reach) is planned
-#: again with both times each of these shares, in order, before the walk stops into standing.
+#: again with both times each of these shares, in order, before the walk stops into standing;
+#: a twist that starts a walk the up-front check refuses starts at the first share it passes.
 #: The slowed slot is stated in ``planner_status`` (``slowed_share``, ``slowed_slots``); the
 #: next slot asks for the twist's own stride again. A ``walk`` command's steps are never
-#: shortened: it stops.
+#: shortened: it stops, or is refused.
 SLOWED_SHARES = (0.6, 0.3)
 
 
@@ -42,11 +43,17 @@ def plan_next(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | Non
         return slot, seq, error, None
     asked = params if params is not None else trial.params
     for share in SLOWED_SHARES:
-        slower = replace(asked, stride=asked.stride * share, turn=asked.turn * share)
+        slower = slowed_params(asked, share)
         slot, seq, retry = plan_checked(robot, copy.copy(trial), slower, stopping)
         if retry is None:
             return slot, seq, None, Slowed(share, error)
     return None, None, error, None
+
+
+def slowed_params(params: WalkParams, share: float) -> WalkParams:
+    """``params`` with the stride and the turn per step times ``share`` (heading, timing and
+    heights unchanged): the same twist's direction, slower."""
+    return replace(params, stride=params.stride * share, turn=params.turn * share)
 
 
 def plan_checked(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | None,

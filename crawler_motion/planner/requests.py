@@ -15,6 +15,7 @@ from crawler_motion.planner.commands import (
     twist_to_params,
 )
 from crawler_motion.planner.context import PlannerContext
+from crawler_motion.planner.next_slot import SLOWED_SHARES, Slowed, slowed_params
 from crawler_motion.planner.state import ESTOP, HOLDING, MOVING, STANDING, STOPPING, WALKING
 from crawler_motion.planner.upfront import UpfrontCheck
 from crawler_motion.planner.walk import WalkController
@@ -146,10 +147,23 @@ class WalkRequests:
         if ctx.paused:
             ctx.journal.refuse(ctx.paused_reason(), now)
         self._refuse_posed(TWIST_IGNORED, now)
-        params = self._from_twist(vx, vy, wz, standing_base, now)
+        params, slowed = self._slowed_start(self._from_twist(vx, vy, wz, standing_base, now))
         self._check_upfront(params, 1, now)
         ctl.start(params, None, "cmd_vel", now)
         ctl.last_twist = now
+        ctx.journal.slowed(slowed, now)
+
+    def _slowed_start(self, params: WalkParams) -> tuple[WalkParams, Slowed | None]:
+        """A twist's walk from standing, or at the first of `next_slot.SLOWED_SHARES` of its
+        stride and turn that the up-front check passes (the check refuses it if none does)."""
+        error = self.upfront(params, 1)
+        if error is None:
+            return params, None
+        for share in SLOWED_SHARES:
+            slower = slowed_params(params, share)
+            if self.upfront(slower, 1) is None:
+                return slower, Slowed(share, error)
+        return params, None
 
     def _refuse_posed(self, what: str, now: float) -> None:
         """Refuse a walk from a posed body: walks start from the neutral standing pose."""

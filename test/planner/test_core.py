@@ -15,8 +15,8 @@ from crawler_motion.model.config import load_config
 from crawler_motion.model.kinematics import forward_kinematics
 from crawler_motion.motion.fastpath import Track
 from crawler_motion.motion.gait import GaitSequencer, WalkParams, plan_walk, standing_pose
-from crawler_motion.planner import moves, next_slot, upfront
-from crawler_motion.planner.commands import needs_stand
+from crawler_motion.planner import moves, next_slot, requests, upfront
+from crawler_motion.planner.commands import needs_stand, twist_to_params
 from crawler_motion.planner.core import JointTarget, PlannerCore
 from crawler_motion.planner.held_stand import STAND_HOLD
 from crawler_motion.planner.moves import sitting_pose
@@ -666,6 +666,8 @@ def test_status_fields_and_revision():
 
 
 def test_an_infeasible_twist_held_still_is_checked_once(monkeypatch):
+    monkeypatch.setattr(next_slot, "SLOWED_SHARES", ())  # and none slower passes
+    monkeypatch.setattr(requests, "SLOWED_SHARES", ())
     clock = standing()
     calls = []
 
@@ -680,6 +682,28 @@ def test_an_infeasible_twist_held_still_is_checked_once(monkeypatch):
         clock.tick()
     assert len(calls) == 1 and clock.core.state == STANDING
     assert clock.core.status()["refusals"] == 5
+
+
+def test_a_twist_whose_walk_is_refused_as_a_whole_starts_slowed_and_says_so():
+    """The twist above with `next_slot.SLOWED_SHARES`: the walk starts at the first share of
+    its stride and turn that passes the up-front check, stated; the twist held still asks for
+    its own stride at every slot (and gets the share that passes)."""
+    clock = standing(cmd_vel_timeout=5.0)
+    asked = 0.133 * float(clock.core.defaults.stance_time)
+    assert clock.core.requests.upfront(
+        twist_to_params(0.0, 0.133, 0.0, CFG, clock.core.defaults), 1) is not None
+    clock.core.on_twist(0.0, 0.133, 0.0, clock.t)
+    status = clock.core.status()
+    assert clock.core.state == WALKING and status["refusals"] == 0
+    assert status["slowed_share"] in next_slot.SLOWED_SHARES and status["slowed_slots"] == 1
+    assert status["last_event"].startswith("slot slowed to") and "reachable" in (
+        status["last_event"])
+    assert clock.core.walk_params.stride == pytest.approx(asked * status["slowed_share"])
+    for _ in range(20):  # 2 s of the twist at 10 Hz
+        clock.core.on_twist(0.0, 0.133, 0.0, clock.t)
+        clock.run(0.1)
+    status = clock.core.status()
+    assert clock.core.state == WALKING and status["slowed_slots"] > 1, status
 
 
 # ------------------------------------------------------------------ planning ahead
