@@ -140,12 +140,13 @@ class SeabedSimNode(Node):
         return value if isinstance(value, (bool, int, float, str)) else tuple(value)
 
     def _publish_sensors(self) -> None:
-        sample = self.sim.plant.sample()
-        stamp = _stamp(sample.stamp)
-        self._imu.publish(self._imu_message(sample, stamp))
-        self._ticks += 1
-        if self._ticks % 2 == 0:
-            self._odom.publish(self._odom_message(sample, stamp))
+        sample = self.sim.plant.take_sample()  # each state once: never a repeated stamp
+        if sample is not None:
+            stamp = _stamp(sample.stamp)
+            self._imu.publish(self._imu_message(sample, stamp))
+            self._ticks += 1
+            if self._ticks % 2 == 0:
+                self._odom.publish(self._odom_message(sample, stamp))
         if self.sim.plant.failure is not None and not self._reported_failure:
             self._reported_failure = True
             self.get_logger().error(self.sim.plant.failure)

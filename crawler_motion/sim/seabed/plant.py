@@ -138,6 +138,7 @@ class SeabedPlant:
         self.snapshots: list[np.ndarray] = []  # qpos, one per snapshot period
         sm.settle(self.data, SETTLE_TIME)
         self._sample = self._measure(self.clock() if self.clock else float(self.data.time))
+        self._sample_new = True  # `_sample` not yet taken by `take_sample`
         self._next_snapshot = float(self.data.time)  # [s] simulated time
         self._keep_snapshot()
         self._pos = self.protocol.to_axis(self.data.qpos[sm.qpos_index])
@@ -169,7 +170,7 @@ class SeabedPlant:
         scan = self._scan_if_due(stamp)
         self._keep_snapshot()
         with self._lock:
-            self._sample = sample
+            self._sample, self._sample_new = sample, True
             if scan is not None:
                 self._scan = scan
         return self._pos.copy()
@@ -218,6 +219,13 @@ class SeabedPlant:
         """The latest body state."""
         with self._lock:
             return self._sample
+
+    def take_sample(self) -> BodySample | None:
+        """The latest body state once; None when the physics has not advanced since (a
+        sensor that published it again would send a stale reading with a repeated stamp)."""
+        with self._lock:
+            sample, self._sample_new = (self._sample if self._sample_new else None), False
+            return sample
 
     def take_scan(self) -> Scan | None:
         """The latest scan once; None when there is no new one."""

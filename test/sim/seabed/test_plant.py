@@ -144,6 +144,18 @@ def test_a_scan_comes_once_per_scan_period(plant: SeabedPlant) -> None:
     assert plant.take_scan() is None
 
 
+def test_a_sample_is_taken_once_per_advance(plant: SeabedPlant) -> None:
+    """The sensors' timer may fire twice between two physics advances: the second time there
+    is nothing to publish (a repeated odom stamp was refused downstream as not newer)."""
+    first = plant.take_sample()
+    assert first is not None and plant.take_sample() is None
+    plant.advance(0.01, plant.initial_axes)
+    second = plant.take_sample()
+    assert second is not None and second.time > first.time
+    assert plant.take_sample() is None
+    assert plant.sample() is second  # the latest state, for whoever asks
+
+
 def test_samples_and_scans_carry_the_clock_time_their_state_was_reached(
         cfg: Config, protocol: MotorProtocol) -> None:
     ticks = iter(range(1000, 2000))
