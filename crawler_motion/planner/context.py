@@ -78,7 +78,8 @@ class Journal:
         self.last_event: str | None = None
         self._events: list[tuple[str, str]] = []
         self.slowed_slots = 0  # slots planned slower than asked (`next_slot.SLOWED_SHARES`)
-        self.slowed_share = 1.0  # the share of the asked stride of the slot last planned
+        self.slowed_share = 1.0  # the share of the asked stride of the walk's last slot
+        self._slowed_said = False  # this walk's first slowed slot was logged
 
     def touch(self, now: float) -> None:
         """Mark a status change at steady time ``now`` [s]."""
@@ -92,20 +93,24 @@ class Journal:
         del self._events[:-MAX_EVENTS]
 
     def slowed(self, slowed: Slowed | None, now: float) -> None:
-        """The slot planned at ``now`` [s] was slowed (``slowed``) or not (None): counted, and
-        an event when the walk becomes slower than asked or returns to the asked stride."""
+        """The slot planned at ``now`` [s] was slowed (``slowed``) or not (None): counted in
+        the status; a walk's first slowed slot is also an event (a navigator steering along
+        a wall may slow every other slot: the counter tells, not the log)."""
         share = 1.0 if slowed is None else slowed.share
-        if share == self.slowed_share:
-            self.slowed_slots += slowed is not None
-            return
-        self.touch(now)
-        if slowed is None:
-            self.event("info", "slot at the asked stride and turn again")
-        else:
+        if slowed is not None:
             self.slowed_slots += 1
-            self.event("warn", f"slot slowed to {share:.0%} of the asked stride and turn: "
-                               f"{slowed.why}")
+            if not self._slowed_said:
+                self._slowed_said = True
+                self.event("warn", f"slot slowed to {share:.0%} of the asked stride and turn "
+                                   f"(further slowed slots of this walk are counted in "
+                                   f"planner_status): {slowed.why}")
+        if share != self.slowed_share or slowed is not None:
+            self.touch(now)
         self.slowed_share = share
+
+    def end_slowed(self) -> None:
+        """The walk ended (or starts): no slot of it is slowed (`slowed_share` 1)."""
+        self.slowed_share, self._slowed_said = 1.0, False
 
     def record_refusal(self, reason: str, now: float) -> None:
         """Count and report a refusal at ``now`` [s]."""

@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
-from functools import partial
 from typing import Any
 
 import numpy as np
@@ -158,8 +157,7 @@ class PlannerCore(CoreReadouts):
         """The up-front check of the walk a gait command ``text`` or a ``twist`` would start
         (`upfront.UpfrontCheck`, tens of ms), as a job the caller may run without its lock
         before submitting it (it fills the check's cache); None when there is none."""
-        walk = self.requests.to_check(text, twist, self._base())
-        return None if walk is None else partial(self.requests.upfront, *walk)
+        return self.requests.upfront_job(text, twist, self._base())
 
     def record_refusal(self, reason: str, now: float) -> None:
         """Record a refusal decided elsewhere (e.g. a bad parameter set) in the status."""

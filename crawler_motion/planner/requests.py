@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+
 from crawler_motion.errors import CommandError
 from crawler_motion.model.config import Config
 from crawler_motion.motion.gait import WalkParams
+from crawler_motion.planner import next_slot
 from crawler_motion.planner.commands import (
     STAND_FIRST,
     TWIST_IGNORED,
@@ -15,7 +19,7 @@ from crawler_motion.planner.commands import (
     twist_to_params,
 )
 from crawler_motion.planner.context import PlannerContext
-from crawler_motion.planner.next_slot import SLOWED_SHARES, Slowed, slowed_params
+from crawler_motion.planner.next_slot import Slowed, slowed_params
 from crawler_motion.planner.state import ESTOP, HOLDING, MOVING, STANDING, STOPPING, WALKING
 from crawler_motion.planner.upfront import UpfrontCheck
 from crawler_motion.planner.walk import WalkController
@@ -41,6 +45,17 @@ class WalkRequests:
             except CommandError:
                 return None
         return None if twist is None else self.twist_to_check(*twist, standing_base)
+
+    def upfront_job(self, text: str | None, twist: tuple[float, float, float] | None,
+                    standing_base: WalkParams) -> Callable[[], object] | None:
+        """`PlannerCore.upfront_job`: the check of `to_check`'s walk as a job (for a twist,
+        with the shares it may start slowed at, `slowed_start`)."""
+        walk = self.to_check(text, twist, standing_base)
+        if walk is None:
+            return None
+        if text is None:
+            return partial(self.slowed_start, walk[0])
+        return partial(self.upfront, *walk)
 
     def walk_to_check(self, cmd: Command, standing_base: WalkParams
                       ) -> tuple[WalkParams, int] | None:
@@ -147,19 +162,23 @@ class WalkRequests:
         if ctx.paused:
             ctx.journal.refuse(ctx.paused_reason(), now)
         self._refuse_posed(TWIST_IGNORED, now)
-        params, slowed = self._slowed_start(self._from_twist(vx, vy, wz, standing_base, now))
+        asked = self._from_twist(vx, vy, wz, standing_base, now)
+        params, slowed = self.slowed_start(asked)
         self._check_upfront(params, 1, now)
         ctl.start(params, None, "cmd_vel", now)
+        ctl.inputs.asked = asked  # the next slots ask for the twist's own stride
         ctl.last_twist = now
         ctx.journal.slowed(slowed, now)
 
-    def _slowed_start(self, params: WalkParams) -> tuple[WalkParams, Slowed | None]:
+    def slowed_start(self, params: WalkParams) -> tuple[WalkParams, Slowed | None]:
         """A twist's walk from standing, or at the first of `next_slot.SLOWED_SHARES` of its
-        stride and turn that the up-front check passes (the check refuses it if none does)."""
+        stride and turn that the up-front check passes (the check refuses it if none does).
+        Tens of ms per check: the node runs it once without its lock first (the verdicts are
+        cached)."""
         error = self.upfront(params, 1)
         if error is None:
             return params, None
-        for share in SLOWED_SHARES:
+        for share in next_slot.SLOWED_SHARES:
             slower = slowed_params(params, share)
             if self.upfront(slower, 1) is None:
                 return slower, Slowed(share, error)

@@ -24,14 +24,25 @@ class SlotInputs:
     pending: WalkParams | None = None  # the next slot's parameters (None: unchanged)
     later: WalkParams | None = None  # a twist's, for the slot after the next one
     steps: tuple[int | None] | None = None  # a new step budget from the next slot
+    #: The parameters asked for of the slot being walked, which may have been planned slower
+    #: (`next_slot.SLOWED_SHARES`): each next slot asks for them again, never for a slowed
+    #: slot's (a slowed stride is not slowed again as if asked for).
+    asked: WalkParams | None = None
 
     def clear(self) -> None:
         """Forget everything asked for."""
-        self.pending = self.later = self.steps = None
+        self.pending = self.later = self.steps = self.asked = None
 
     def newest(self, current: WalkParams | None) -> WalkParams | None:
         """The newest parameters asked for, else ``current`` (the slot's)."""
-        return self.later or self.pending or current
+        return self.later or self.pending or self.asked or current
+
+    def next(self, current: WalkParams | None) -> WalkParams | None:
+        """The next slot's parameters: the new ones asked for, else those asked for of the
+        slot ``current`` (its parameters) when it was slowed, else None (unchanged)."""
+        if self.pending is not None:
+            return self.pending
+        return self.asked if self.asked is not None and self.asked != current else None
 
     def take_twist(self, params: WalkParams, current: WalkParams | None,
                    to_boundary: float) -> None:
@@ -50,6 +61,8 @@ class SlotInputs:
         self.steps = (steps,)
 
     def advance(self, stopping: bool) -> None:
-        """The next slot was planned (``stopping``: a stop): a twist kept for the slot after
-        it becomes the next one's."""
+        """The next slot was planned (``stopping``: a stop): what it was asked for is kept
+        (`asked`), and a twist kept for the slot after it becomes the next one's."""
+        if self.pending is not None:
+            self.asked = self.pending
         self.pending, self.later = (None if stopping else self.later), None

@@ -62,6 +62,7 @@ class WalkController:
         self.seq = self.slot = self.track = self.params = None
         self.frozen_at = self.ahead = None
         self.inputs.clear()
+        self.ctx.journal.end_slowed()
         self.stop_requested = self.waiting = False
 
     def freeze(self, at: float) -> None:
@@ -98,7 +99,7 @@ class WalkController:
         self.steady_planned = self.steady_done = 0
         self.groups = seq.n_groups
         self.source = source
-        self.ctx.journal.slowed_share = 1.0
+        self.inputs.asked = params
         self.ctx.state = WALKING
         self.foothold.start(self.ctx.hold)
         self._commit(slot, seq, now)
@@ -153,7 +154,7 @@ class WalkController:
             facts, slowed = ahead.facts, ahead.slowed
         else:
             slot, seq, error, slowed = self._try_slot(pending, stopping)
-        if not stopping:
+        if not stopping and error is None:
             self.ctx.journal.slowed(slowed, t0)
         if error is not None:
             track = facts = None
@@ -183,7 +184,7 @@ class WalkController:
         stopping = self.stop_requested or (
             steps_total is not None and self.seq.phase == "steady"
             and steady_planned >= steps_total * self.seq.n_groups)
-        return stopping, (None if stopping else self.inputs.pending)
+        return stopping, (None if stopping else self.inputs.next(self.params))
 
     def _slot_end_pose(self) -> np.ndarray:
         assert self.track is not None

@@ -15,7 +15,7 @@ from crawler_motion.model.config import load_config
 from crawler_motion.model.kinematics import forward_kinematics
 from crawler_motion.motion.fastpath import Track
 from crawler_motion.motion.gait import GaitSequencer, WalkParams, plan_walk, standing_pose
-from crawler_motion.planner import moves, next_slot, requests, upfront
+from crawler_motion.planner import moves, next_slot, upfront
 from crawler_motion.planner.commands import needs_stand, twist_to_params
 from crawler_motion.planner.core import JointTarget, PlannerCore
 from crawler_motion.planner.held_stand import STAND_HOLD
@@ -667,7 +667,6 @@ def test_status_fields_and_revision():
 
 def test_an_infeasible_twist_held_still_is_checked_once(monkeypatch):
     monkeypatch.setattr(next_slot, "SLOWED_SHARES", ())  # and none slower passes
-    monkeypatch.setattr(requests, "SLOWED_SHARES", ())
     clock = standing()
     calls = []
 
@@ -704,6 +703,27 @@ def test_a_twist_whose_walk_is_refused_as_a_whole_starts_slowed_and_says_so():
         clock.run(0.1)
     status = clock.core.status()
     assert clock.core.state == WALKING and status["slowed_slots"] > 1, status
+
+
+def test_a_twist_sent_once_is_asked_for_again_at_every_slot_never_a_slowed_one():
+    """One twist, no more (a teleop that publishes on change): every slot asks for the
+    twist's own stride and is slowed from it, never from the last slowed stride (0.6 x 0.6
+    ...), and the status says so at every slot; a stop ends it (share 1 again)."""
+    clock = standing(cmd_vel_timeout=5.0)
+    asked = 0.133 * float(clock.core.defaults.stance_time)
+    clock.core.on_twist(0.0, 0.133, 0.0, clock.t)
+    seen = set()
+    for _ in range(40):  # 4 s
+        clock.run(0.1)
+        status = clock.core.status()
+        stride = clock.core.walk_params.stride
+        seen.add(round(stride / asked, 6))
+        assert stride == pytest.approx(asked * status["slowed_share"]), status
+    assert seen <= {round(x, 6) for x in (1.0, *next_slot.SLOWED_SHARES)}, seen
+    assert min(seen) < 1.0 and clock.core.status()["slowed_slots"] > 3
+    clock.core.on_twist(0.0, 0.0, 0.0, clock.t)
+    clock.until(STANDING)
+    assert clock.core.status()["slowed_share"] == 1.0
 
 
 # ------------------------------------------------------------------ planning ahead

@@ -3,8 +3,9 @@
 It speaks the protocol of ``motor_manager_sim`` (the same `MotorManagerSim`, whose axes are
 moved by a `SeabedPlant`; its effort frames carry the servo torques averaged over each feedback
 period) on the bus of ``can_interface`` / ``can_channel`` / ``can_port`` and
-publishes the body's truth and sensors: ``odom`` (nav_msgs/Odometry, odom -> base_link, 50 Hz),
-``imu`` (sensor_msgs/Imu, base_link, 100 Hz), ``scan`` (sensor_msgs/PointCloud2, scanner_link,
+publishes the body's truth and sensors: ``imu`` (sensor_msgs/Imu, base_link) once per physics
+state (the manager's feedback cycle: 100 Hz; none while the physics stands still or failed),
+``odom`` (nav_msgs/Odometry, odom -> base_link) with every second of them (50 Hz), ``scan`` (sensor_msgs/PointCloud2, scanner_link,
 x y z float32, at the scanner's rate) and ``/diagnostics`` (ERROR with the reason once the
 physics went unstable; the manager then holds). The physics runs in the manager's thread,
 lock-stepped to the steady clock. Servos hold where the manager last held them while it is
@@ -41,7 +42,9 @@ from crawler_motion.sim.seabed.plant import BodySample
 from crawler_motion.sim.seabed.render import gl_unavailable, record_paths, render_snapshots
 
 NAME = "seabed_sim"
-SENSOR_PERIOD = 0.01  # imu period [s]; odom every second one
+#: The sensors look for a new physics state this often [s]: half the manager's feedback period,
+#: so that no state is missed between two looks (each is published once).
+SENSOR_PERIOD = 0.005
 SCAN_POLL_PERIOD = 0.02  # [s]
 DIAGNOSTICS_PERIOD = 1.0  # [s]
 HARDWARE_ID = "seabed_sim"
