@@ -2,16 +2,17 @@
 
 It speaks the protocol of ``motor_manager_sim`` (the same `MotorManagerSim`, whose axes are
 moved by a `SeabedPlant`; its effort frames carry the servo torques averaged over each feedback
-period) on the bus of ``can_interface`` / ``can_channel`` / ``can_port`` and
-publishes the body's truth and sensors: ``imu`` (sensor_msgs/Imu, base_link) once per physics
-state (the manager's feedback cycle: 100 Hz; none while the physics stands still or failed),
-``odom`` (nav_msgs/Odometry, odom -> base_link) with every second of them (50 Hz), ``scan`` (sensor_msgs/PointCloud2, scanner_link,
-x y z float32, at the scanner's rate) and ``/diagnostics`` (ERROR with the reason once the
-physics went unstable; the manager then holds). The physics runs in the manager's thread,
-lock-stepped to the steady clock. Servos hold where the manager last held them while it is
-disabled, holds or is stopped (the robot keeps standing). With ``record`` it keeps the state at
-``record_fps`` during the run and renders a PNG and a GIF from it on shutdown (headless; where
-no GL backend works it says so in one line and runs without pictures).
+period) on the bus of ``can_interface`` / ``can_channel`` / ``can_port`` and publishes the
+body's truth and sensors: ``imu`` (sensor_msgs/Imu, base_link) once per physics state (the
+manager's feedback cycle: 100 Hz; none while the physics stands still or failed), ``odom``
+(nav_msgs/Odometry, odom -> base_link) with every second of them (50 Hz), ``scan``
+(sensor_msgs/PointCloud2, scanner_link, x y z float32, at the scanner's rate) and
+``/diagnostics`` (ERROR with the reason once the physics went unstable; the manager then
+holds). The physics runs in the manager's thread, lock-stepped to the steady clock. Servos hold
+where the manager last held them while it is disabled, holds or is stopped (the robot keeps
+standing). With ``record`` it keeps the state at ``record_fps`` during the run and renders a
+PNG and a GIF from it on shutdown (headless; where no GL backend works it says so in one line
+and runs without pictures).
 """
 
 from __future__ import annotations
