@@ -79,7 +79,11 @@ def test_the_map_carries_its_last_fused_scan_and_the_counters(tmp_path: Path,
         # the last fused scan (its stamp went through float seconds: within 1 µs)
         assert -1000 <= (last - load).nanoseconds <= 0.3e9, (last, load)
         spin(0.5, scans=False, future_odom=True)  # refused, counted
-        node.create_publisher(PointCloud2, "scan", 10).publish(cloud(last.to_msg(), "other"))
+        other = node.create_publisher(PointCloud2, "scan", 10)
+        end = time.monotonic() + 10.0  # a sample published before the match would be lost
+        while other.get_subscription_count() == 0 and time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        other.publish(cloud(last.to_msg(), "other"))
         end = time.monotonic() + 3.0
         while time.monotonic() < end and diags.get("terrain_mapper: terrain map", {}).get(
                 "skipped_MALFORMED", "0") == "0":
