@@ -214,7 +214,10 @@ def test_hostile_odometry_and_goal_floods_neither_kill_nor_flood(tmp_path: Path,
         bad = PointCloud2(height=1, width=1, point_step=4, row_step=4, data=bytes(4))
         bad.fields = [PointField(name=n, offset=100, datatype=PointField.FLOAT32, count=1)
                       for n in ("x", "y", "z", "variance")]
-        world.node.create_publisher(PointCloud2, "terrain_heights", 2).publish(bad)
+        heights = world.node.create_publisher(PointCloud2, "terrain_heights", 2)
+        # published once matched (a sample published before the match would be lost)
+        assert world.spin_until(lambda: heights.get_subscription_count() > 0, 10.0)
+        heights.publish(bad)
         assert world.status["state"] == "ACTIVE" and world.spin_until(world.walking, 2.0)
         assert world.diagnostics["navigator: navigation"]["callback_errors"] == "0"
         # no odometry: held ("waiting for odometry"), and on again when it comes back
