@@ -109,6 +109,7 @@ class NavigatorNode(Node):
         # steady time of the last cmd_vel twist of another node [s], and how many were seen
         self._foreign_at, self.foreign_twists = -float("inf"), 0
         self._heights: np.ndarray | None = None
+        self.heights_refused = 0  # terrain_heights clouds whose fields do not fit them
         self._last_status = ""
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._cmd = self.create_publisher(Twist, "cmd_vel", 10)
@@ -206,7 +207,9 @@ class NavigatorNode(Node):
         super().destroy_node()
 
     def _on_heights(self, msg: PointCloud2) -> None:
+        """The newest heights; a malformed cloud leaves none (counted in the diagnostics)."""
         self._heights = read_heights(msg)
+        self.heights_refused += self._heights is None
 
     def _on_cancel(self, _req: Trigger.Request, resp: Trigger.Response) -> Trigger.Response:
         nav, mission = self._nav, self.missions.running
@@ -280,7 +283,7 @@ class NavigatorNode(Node):
                   "foreign_twists_seen": self.foreign_twists,
                   "other_cmd_vel_publishers": " ".join(others),
                   "map_age": round(min(self.freshness.age(time.monotonic()), 1e9), 3),
-                  "callback_errors": self.guard.total,
+                  "callback_errors": self.guard.total, "heights_refused": self.heights_refused,
                   **{f"odom_{k}": v for k, v in sorted(self.odom.refused.items())}}
         self._diagnostics.publish(counters_array(
             self, "navigation", HARDWARE_ID, "warn" if warn else "ok",

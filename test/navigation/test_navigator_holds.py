@@ -218,6 +218,8 @@ def test_hostile_odometry_and_goal_floods_neither_kill_nor_flood(tmp_path: Path,
         # published once matched (a sample published before the match would be lost)
         assert world.spin_until(lambda: heights.get_subscription_count() > 0, 10.0)
         heights.publish(bad)
+        assert world.spin_until(lambda: world.diagnostics.get("navigator: navigation", {}).get(
+            "heights_refused") == "1", 3.0), world.diagnostics
         assert world.status["state"] == "ACTIVE" and world.spin_until(world.walking, 2.0)
         assert world.diagnostics["navigator: navigation"]["callback_errors"] == "0"
         # no odometry: held ("waiting for odometry"), and on again when it comes back
