@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import TypeVar
 
 from crawler_motion.errors import GaitError, KinematicsError, TrajectoryError
 from crawler_motion.model.config import RobotConfig
@@ -23,6 +25,8 @@ PLAN_AHEAD_HORIZON = 0.2
 #: shortened: it stops, or is refused.
 SLOWED_SHARES = (0.6, 0.3)
 
+T = TypeVar("T")
+
 
 @dataclass(frozen=True)
 class Slowed:
@@ -41,19 +45,27 @@ def plan_next(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | Non
     slot, seq, error = plan_checked(robot, copy.copy(trial), params, stopping)
     if error is None or not slow or stopping:
         return slot, seq, error, None
-    asked = params if params is not None else trial.params
-    for share in SLOWED_SHARES:
-        slower = slowed_params(asked, share)
+    def attempt(slower: WalkParams) -> tuple[Slot | None, GaitSequencer | None] | None:
         slot, seq, retry = plan_checked(robot, copy.copy(trial), slower, stopping)
-        if retry is None:
-            return slot, seq, None, Slowed(share, error)
-    return None, None, error, None
+        return (slot, seq) if retry is None else None
+
+    found = first_slower(params if params is not None else trial.params, attempt)
+    if found is None:
+        return None, None, error, None
+    share, (slot, seq) = found
+    return slot, seq, None, Slowed(share, error)
 
 
-def slowed_params(params: WalkParams, share: float) -> WalkParams:
-    """``params`` with the stride and the turn per step times ``share`` (heading, timing and
-    heights unchanged): the same twist's direction, slower."""
-    return replace(params, stride=params.stride * share, turn=params.turn * share)
+def first_slower(asked: WalkParams, attempt: Callable[[WalkParams], T | None]
+                 ) -> tuple[float, T] | None:
+    """The first of `SLOWED_SHARES` at which ``attempt`` accepts ``asked`` with the stride and
+    the turn per step times the share (heading, timing and heights unchanged: the same
+    twist's direction, slower), with what it returned; None if it accepts none."""
+    for share in SLOWED_SHARES:
+        result = attempt(replace(asked, stride=asked.stride * share, turn=asked.turn * share))
+        if result is not None:
+            return share, result
+    return None
 
 
 def plan_checked(robot: RobotConfig, trial: GaitSequencer, params: WalkParams | None,

@@ -8,7 +8,6 @@ from functools import partial
 from crawler_motion.errors import CommandError
 from crawler_motion.model.config import Config
 from crawler_motion.motion.gait import WalkParams
-from crawler_motion.planner import next_slot
 from crawler_motion.planner.commands import (
     STAND_FIRST,
     TWIST_IGNORED,
@@ -19,7 +18,7 @@ from crawler_motion.planner.commands import (
     twist_to_params,
 )
 from crawler_motion.planner.context import PlannerContext
-from crawler_motion.planner.next_slot import Slowed, slowed_params
+from crawler_motion.planner.next_slot import Slowed, first_slower
 from crawler_motion.planner.state import ESTOP, HOLDING, MOVING, STANDING, STOPPING, WALKING
 from crawler_motion.planner.upfront import UpfrontCheck
 from crawler_motion.planner.walk import WalkController
@@ -178,11 +177,9 @@ class WalkRequests:
         error = self.upfront(params, 1)
         if error is None:
             return params, None
-        for share in next_slot.SLOWED_SHARES:
-            slower = slowed_params(params, share)
-            if self.upfront(slower, 1) is None:
-                return slower, Slowed(share, error)
-        return params, None
+        found = first_slower(params, lambda slower: slower if self.upfront(slower, 1) is None
+                             else None)
+        return (params, None) if found is None else (found[1], Slowed(found[0], error))
 
     def _refuse_posed(self, what: str, now: float) -> None:
         """Refuse a walk from a posed body: walks start from the neutral standing pose."""
