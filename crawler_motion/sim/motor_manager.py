@@ -146,9 +146,9 @@ class MotorManagerSim:
         self._counters = SimCounters()
         self.last_error = ""
         self._lock = threading.RLock()
-        self._loop = StepLoop(THREAD_NAME, min(self.period, self.heartbeat_period, MAX_TICK),
-                              clock, self._receive, self.handle, self._advance,
-                              self._on_step_error)
+        self.step_period = min(self.period, self.heartbeat_period, MAX_TICK)  # physics step [s]
+        self._loop = StepLoop(THREAD_NAME, self.step_period, clock, self._receive, self.handle,
+                              self._advance, self._on_step_error)
 
     # ---- observation -----------------------------------------------------------------------
 

@@ -4,9 +4,9 @@ It speaks the protocol of ``motor_manager_sim`` (the same `MotorManagerSim`, who
 moved by a `SeabedPlant`; its effort frames carry the servo torques averaged over each feedback
 period) on the bus of ``can_interface`` / ``can_channel`` / ``can_port`` and publishes the
 body's truth and sensors: ``imu`` (sensor_msgs/Imu, base_link) once per physics state (the
-manager's feedback cycle: 100 Hz; none while the physics stands still or failed), ``odom``
-(nav_msgs/Odometry, odom -> base_link) with every second of them (50 Hz), ``scan``
-(sensor_msgs/PointCloud2, scanner_link, x y z float32, at the scanner's rate) and
+manager's step: 100 Hz with the DBC's feedback cycle; none while the physics stands still or
+failed), ``odom`` (nav_msgs/Odometry, odom -> base_link) with every second of them (50 Hz),
+``scan`` (sensor_msgs/PointCloud2, scanner_link, x y z float32, at the scanner's rate) and
 ``/diagnostics`` (ERROR with the reason once the physics went unstable; the manager then
 holds). The physics runs in the manager's thread, lock-stepped to the steady clock. Servos hold
 where the manager last held them while it is disabled, holds or is stopped (the robot keeps
@@ -43,9 +43,9 @@ from crawler_motion.sim.seabed.plant import BodySample
 from crawler_motion.sim.seabed.render import gl_unavailable, record_paths, render_snapshots
 
 NAME = "seabed_sim"
-#: The sensors look for a new physics state this often [s]: half the manager's feedback period,
-#: so that no state is missed between two looks (each is published once).
-SENSOR_PERIOD = 0.005
+#: The sensors look for a new physics state this many times per step of the manager (its
+#: `step_period`), so that no state is missed between two looks (each is published once).
+SENSOR_LOOKS_PER_STEP = 2
 SCAN_POLL_PERIOD = 0.02  # [s]
 DIAGNOSTICS_PERIOD = 1.0  # [s]
 HARDWARE_ID = "seabed_sim"
@@ -104,7 +104,8 @@ class SeabedSimNode(Node):
         self._ticks = 0
         self._reported_failure = False
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(SENSOR_PERIOD, self._publish_sensors, clock=steady)
+        self.create_timer(self.manager.step_period / SENSOR_LOOKS_PER_STEP,
+                          self._publish_sensors, clock=steady)
         self.create_timer(SCAN_POLL_PERIOD, self._publish_scan, clock=steady)
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics, clock=steady)
         self._record = self._picture_target()
