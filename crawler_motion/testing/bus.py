@@ -18,11 +18,26 @@ from crawler_motion.canbus.bus import (
 DEFAULT_GROUP = str(default_channel(UDP_MULTICAST))
 
 
-def free_udp_port() -> int:
-    """A UDP port free right now (one per cross-process bus: sockets bind the port)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("", 0))
-        return int(s.getsockname()[1])
+#: Ports ``free_udp_port`` draws from: above the privileged ports and below both the RTPS port
+#: base of DDS (7400; every ROS domain's ports are 7400 + 250 domain + offsets) and the
+#: kernel's ephemeral range (32768-60999 by default). A port drawn from the ephemeral range
+#: could be free when drawn and be bound by a DDS participant of the test's own domain (or by
+#: any socket bound to port 0) before the stack's processes bind it.
+FREE_PORTS = (1024, 7399)
+
+
+def free_udp_port(attempts: int = 64) -> int:
+    """A UDP port in `FREE_PORTS` that no socket holds right now (one per cross-process bus:
+    sockets bind the port). Raises ``OSError`` if ``attempts`` draws all find a port held."""
+    for _ in range(attempts):
+        port = random.randint(*FREE_PORTS)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            try:
+                s.bind(("", port))
+            except OSError:
+                continue
+            return port
+    raise OSError(f"no free UDP port in {FREE_PORTS[0]}-{FREE_PORTS[1]} after {attempts} draws")
 
 
 def random_multicast_group() -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
 import time
@@ -39,6 +40,15 @@ from crawler_motion.testing.tap import (
 PROTOCOL = MotorProtocol.from_config(load_config().robot)
 
 
+def test_free_udp_port_says_when_every_draw_is_held(monkeypatch):
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        held.bind(("", 0))
+        port = held.getsockname()[1]
+        monkeypatch.setattr("crawler_motion.testing.bus.random.randint", lambda *_: port)
+        with pytest.raises(OSError, match=r"no free UDP port .* after 3 draws"):
+            free_udp_port(attempts=3)
+
+
 def test_default_group_is_python_can_s():
     from can.interfaces.udp_multicast import UdpMulticastBus
 
@@ -46,8 +56,11 @@ def test_default_group_is_python_can_s():
 
 
 def test_free_udp_port_and_random_group():
-    port = free_udp_port()
-    assert 1024 <= port <= 65535
+    for _ in range(20):  # never a port DDS or the kernel may bind after it is drawn
+        port = free_udp_port()
+        assert 1024 <= port < 7400
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.bind(("", port))
     for _ in range(50):
         octets = [int(x) for x in random_multicast_group().split(".")]
         assert octets[0] == 239 and all(1 <= x <= 254 for x in octets[1:])
