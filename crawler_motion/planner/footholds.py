@@ -25,6 +25,7 @@ from crawler_motion.motion.contact_estimation import FootContact
 from crawler_motion.motion.fastpath import FastKinematics, Track
 from crawler_motion.motion.foothold import FootholdAdapter, FootholdSettings, lowering_start
 from crawler_motion.motion.gait import Slot, check_trajectories
+from crawler_motion.motion.jointtable import JointTable
 from crawler_motion.motion.stumble import (
     HitWatch,
     Retry,
@@ -63,6 +64,7 @@ class Footholds:
         self.failure_pose: np.ndarray | None = None  # the pose [rad] a failure holds
         self.replanned: Track | None = None
         self._slot: Slot | None = None
+        self._table: JointTable | None = None  # the slot's joints, tabulated (`slot_facts`)
         self._legs: list[Piecewise] = []  # the current slot's leg trajectories
         #: Per leg, its swing's horizontal direction in the current slot (None: not swinging).
         self._swing_dir: list[np.ndarray | None] = [None] * robot.n_legs
@@ -113,11 +115,12 @@ class Footholds:
         lift from their footholds, the body heads for its new pose. ``facts``: its
         `slot_facts`, computed ahead (else now)."""
         if facts is None or facts.slot is not slot:
-            facts = slot_facts(slot)
+            facts = slot_facts(slot, self.robot)
         if self._previous is not None:
             self._base += self._previous
         self._previous = slot.duration
         self._slot, self._legs, self.replanned = slot, list(slot.legs), None
+        self._table = facts.table
         self.hits.clear()
         held = self.adapter.held()  # the footholds, before the swinging legs leave theirs
         self._swing_dir = list(facts.directions)
@@ -161,9 +164,11 @@ class Footholds:
         if self.replanned is not None:  # a stumble's retry replaced the slot's track
             track = self.replanned
         states, forces, totals, stamp = self._estimate()
-        pos, vel = track.evaluate(t)
         if states is None and self.adapter.quiet(clock) and self.pose.quiet():
-            return kin.solve(pos, vel)  # the blind plan, at its cost
+            table = self._table if self.replanned is None else None
+            joints = None if table is None else table.evaluate(t)  # tabulated ahead
+            return kin.solve(*track.evaluate(t)) if joints is None else joints  # blind plan
+        pos, vel = track.evaluate(t)
         if states is not None and totals is not None and self.stumble.enabled:
             retried = self._stumbles(track, t, states, totals, pos, stamp)
             if retried is not track:
@@ -263,10 +268,12 @@ class SlotFacts:
     #: per swinging leg: (leg, lowering start [s], foot z at lift-off [m], at touch-down [m])
     swings: tuple[tuple[int, float, float, float], ...]
     start_xy: np.ndarray  # (n_legs, 2) the feet at the slot's start [m]
+    #: the blind plan's joints, tabulated (`JointTable`; None: the tick solves them)
+    table: JointTable | None
 
 
-def slot_facts(slot: Slot) -> SlotFacts:
-    """The `SlotFacts` of ``slot``."""
+def slot_facts(slot: Slot, robot: RobotConfig) -> SlotFacts:
+    """The `SlotFacts` of ``slot`` for ``robot``, its `JointTable` included (~5 ms)."""
     n_legs = len(slot.legs)
     directions: list[np.ndarray | None] = [None] * n_legs
     swings = []
@@ -278,7 +285,8 @@ def slot_facts(slot: Slot) -> SlotFacts:
                            float(leg.evaluate(0.0)[0][0, 2]),
                            float(leg.evaluate(slot.swing_time)[0][0, 2])))
     xy = np.array([leg.evaluate(0.0)[0][0, :2] for leg in slot.legs])
-    return SlotFacts(slot, tuple(directions), tuple(swings), xy)
+    table = JointTable.build(slot.legs, robot)
+    return SlotFacts(slot, tuple(directions), tuple(swings), xy, table)
 
 
 def swing_direction(leg: Piecewise, swing_time: float) -> np.ndarray | None:

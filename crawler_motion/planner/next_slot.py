@@ -127,12 +127,12 @@ class AheadJob:
     slow: bool = False  # a cmd_vel walk: a refused slot may be slowed (`plan_next`)
 
     def run(self) -> AheadPlan:
-        """Plan, check and prepare the evaluator and the footholds' facts of the next slot
-        (~2-10 ms; a slowed slot up to three times that)."""
+        """Plan, check and prepare the evaluator, the footholds' facts and the joint table
+        (`JointTable`) of the next slot (~10-30 ms; a slowed slot up to three times that)."""
         slot, seq, error, slowed = plan_next(self.robot, self.seq, self.pending, self.stopping,
                                              self.slow)
         ready = slot is not None and error is None
         track = Track(slot.legs) if ready else None
-        facts = slot_facts(slot) if ready else None
+        facts = slot_facts(slot, self.robot) if ready else None
         return AheadPlan(self.after, self.pending, self.stopping, slot, seq, error, track,
                          facts, slowed)

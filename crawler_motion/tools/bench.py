@@ -16,7 +16,8 @@ Rows:
 - one control tick through the public numpy API: `WalkPlan.evaluate` + `inverse_kinematics`
   + `joint_velocities` for 4 feet / 12 joints at one instant;
 - the same tick through `motion.fastpath` (`Track` + `FastKinematics`), and its
-  parts;
+  parts; the slot's joints interpolated from its `motion.jointtable.JointTable` (what the
+  planner's tick runs on the blind plan) and the table's setup;
 - `PlannerCore.tick` while walking at 100 Hz as the node runs it (the next slot planned by
   `PlannerCore.plan_ahead` between ticks), the same without planning ahead (its p99 is the
   slot boundaries, where the tick plans and checks the next slot), and `plan_ahead` itself;
@@ -49,6 +50,7 @@ from crawler_motion.motion.gait import (
     check_trajectories,
     plan_walk,
 )
+from crawler_motion.motion.jointtable import ANGLE_TOL, RATE_TOL, JointTable
 from crawler_motion.tools.bench_peer import (
     CALIBRATED_RATIO,
     PEER_RATIO,
@@ -157,6 +159,17 @@ def tick_rows(cfg: Config, params: WalkParams, seq: GaitSequencer, scale: float)
     assert slot is not None
     rows.append(measure("fast path slot setup (`Track(slot.legs)`)",
                         lambda: Track(slot.legs), calls_scaled(2000, scale)))
+    table = JointTable.build(slot.legs, robot)
+    assert table is not None
+    slot_clock = PlanClock(slot.duration)
+    rows.append(measure("tick, joint table: `JointTable.evaluate` (12 joints, p + v)",
+                        lambda: table.evaluate(slot_clock()), many,
+                        note=f"what the planner's tick runs on the blind plan; "
+                             f"{table.n_cells} cells, {table.exact_cells} left to the fast "
+                             f"path; within {ANGLE_TOL:g} rad, {RATE_TOL:g} rad/s"))
+    rows.append(measure("joint table setup (`JointTable.build`), once per slot",
+                        lambda: JointTable.build(slot.legs, robot), calls_scaled(200, scale),
+                        note="in the planning thread, with the slot's plan"))
     return rows
 
 

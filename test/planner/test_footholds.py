@@ -15,6 +15,7 @@ from crawler_motion.motion.contact_estimation import ContactEstimate, FootContac
 from crawler_motion.motion.fastpath import FastKinematics, Track, joint_targets
 from crawler_motion.motion.foothold import FootholdSettings, Mode
 from crawler_motion.motion.gait import WalkParams, plan_walk, standing_pose
+from crawler_motion.motion.jointtable import JointTable
 from crawler_motion.motion.stumble import StumbleSettings
 from crawler_motion.planner.contacts import ContactMonitor
 from crawler_motion.planner.core import PlannerCore
@@ -212,3 +213,24 @@ def test_imu_levelling_cancels_the_mean_measured_tilt() -> None:
         footholds.measure_attitude(roll, pitch)
     footholds.begin_slot(slots[1])
     assert footholds.pose.target == pytest.approx((0.0, -0.02, -0.04))
+
+
+@pytest.mark.parametrize(("state", "tabulated"), [(None, True), (FootContact.YES, False)])
+def test_the_blind_plan_is_served_by_the_slot_s_joint_table(
+        state: FootContact | None, tabulated: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Blind: the tick interpolates the slot's `JointTable`; with contacts known the feet
+    may move off the plan, so the tick solves them (the table is never read)."""
+    served: list[float] = []
+    real = JointTable.evaluate
+
+    def counting(self: JointTable, t: float) -> tuple[list[float], list[float]] | None:
+        served.append(t)
+        return real(self, t)
+
+    monkeypatch.setattr(JointTable, "evaluate", counting)
+    core, t = _standing()
+    if state is not None:
+        core.walk.foothold.configure(FootholdSettings(enabled=True))
+    feet, _ = _walk(core, t, state)
+    assert core.state == STANDING
+    assert (len(served) >= len(feet) - 2) if tabulated else not served
