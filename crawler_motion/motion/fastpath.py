@@ -4,7 +4,8 @@ The public numpy API (`Piecewise.evaluate`, `kinematics.inverse_kinematics`,
 `kinematics.joint_velocities`) is vectorised for batches and is the reference; for one time
 instant its cost is dominated by numpy's per-call overhead (dozens of ufunc calls on 12
 numbers). This module computes the same numbers for one instant with `math` on Python floats,
-and is what the planner's tick runs:
+and is what the planner's tick runs wherever the slot's `jointtable.JointTable` does not serve
+it (feet moved off the blind plan, or a cell the table left to it):
 
 - `Track` holds rows of `Piecewise` trajectories (a gait slot's feet, or a joint-space move)
   as tuples of coefficients and the active segment of each (found again with `bisect` only

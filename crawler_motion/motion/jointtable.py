@@ -111,15 +111,16 @@ class JointTable:
         start, end = nodes[:-1], nodes[1:]
         length = end - start
         eps = np.minimum(FD_STEP, length / 4.0)
+        times = np.concatenate((nodes, start + eps, start + 2.0 * eps, end - eps,
+                                end - 2.0 * eps, start + 0.5 * length))
         try:
-            q, qd = _joints(legs, robot, nodes)
-            _, ahead1 = _joints(legs, robot, start + eps)
-            _, ahead2 = _joints(legs, robot, start + 2.0 * eps)
-            _, back1 = _joints(legs, robot, end - eps)
-            _, back2 = _joints(legs, robot, end - 2.0 * eps)
-            q_mid, qd_mid = _joints(legs, robot, start + 0.5 * length)
+            q_all, qd_all = _joints(legs, robot, times)  # one batch
         except KinematicsError:
             return None
+        n = len(start)
+        q, qd = q_all[:n + 1], qd_all[:n + 1]
+        ahead1, ahead2, back1, back2, qd_mid = np.split(qd_all[n + 1:], 5)
+        q_mid = q_all[-n:]
         e = eps[:, None]
         qdd0 = (-3.0 * qd[:-1] + 4.0 * ahead1 - ahead2) / (2.0 * e)
         qdd1 = (3.0 * qd[1:] - 4.0 * back1 + back2) / (2.0 * e)
