@@ -23,15 +23,11 @@ CFG = load_config()
 ROBOT = CFG.robot
 CALIBRATED = perturbed_robot(ROBOT, 1)
 
-WALKS = [
-    {},
-    {"gait": "wave", "profile": "rest"},
-    {"heading": 1.5708, "stride": 0.04},
-    {"heading": -2.5, "turn": 0.2, "stride": 0.03, "lift": 0.015, "arc": 0.02},
-    {"turn": -0.3, "stride": 0.0},
-    {"gait": "diagonal", "swing_time": 0.3, "stance_time": 0.9, "body_height": 0.08},
-    {"gait": "diagonal_sway"},
-]
+#: every shipped gait at its defaults, then headings, turns and a short swing
+WALKS = [*({"gait": name} for name in CFG.gait.gaits),
+         {"heading": 1.5708, "stride": 0.04}, {"heading": -2.5, "turn": 0.2, "stride": 0.03},
+         {"turn": -0.3, "stride": 0.0},
+         {"gait": "diagonal", "swing_time": 0.3, "stance_time": 0.9, "body_height": 0.08}]
 
 
 def slots_of(walk: dict, n: int = 3) -> list[Slot]:
