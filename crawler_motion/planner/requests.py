@@ -53,8 +53,16 @@ class WalkRequests:
         if walk is None:
             return None
         if text is None:
-            return partial(self.slowed_start, walk[0])
-        return partial(self.upfront, *walk)
+            return partial(self._prepare, *walk, slowed=True)
+        return partial(self._prepare, *walk)
+
+    def _prepare(self, params: WalkParams, steps: int, slowed: bool = False) -> None:
+        """The up-front job: check the walk (for a twist, at the share it may start slowed
+        at) and, from standing, plan its first slot (`UpfrontCheck.prepare`)."""
+        if slowed:
+            params = self.slowed_start(params)[0]
+        if self.upfront(params, steps) is None and self.ctx.state == STANDING:
+            self.upfront.prepare(params)
 
     def walk_to_check(self, cmd: Command, standing_base: WalkParams
                       ) -> tuple[WalkParams, int] | None:
@@ -120,7 +128,7 @@ class WalkRequests:
                                    now)
         self._check_upfront(params, cmd.steps or 1, now)
         if state == STANDING:
-            ctl.start(params, cmd.steps, "command", now)
+            ctl.start(params, cmd.steps, "command", now, self.upfront.take_first(params))
             return
         ctl.inputs.take_command(params, cmd.steps)
         ctl.source = "command"
@@ -164,7 +172,7 @@ class WalkRequests:
         asked = self._from_twist(vx, vy, wz, standing_base, now)
         params, slowed = self.slowed_start(asked)
         self._check_upfront(params, 1, now)
-        ctl.start(params, None, "cmd_vel", now)
+        ctl.start(params, None, "cmd_vel", now, self.upfront.take_first(params))
         ctl.inputs.asked = asked  # the next slots ask for the twist's own stride
         ctl.last_twist = now
         ctx.journal.slowed(slowed, now)

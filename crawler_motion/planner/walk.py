@@ -10,7 +10,7 @@ import numpy as np
 from crawler_motion.errors import GaitError, KinematicsError, TrajectoryError
 from crawler_motion.model.config import Config
 from crawler_motion.motion.fastpath import FastKinematics, Track
-from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams, check_trajectories
+from crawler_motion.motion.gait import GaitSequencer, Slot, WalkParams
 from crawler_motion.planner.context import JointTarget, PlannerContext
 from crawler_motion.planner.footholds import Footholds, SlotFacts
 from crawler_motion.planner.next_slot import (
@@ -22,6 +22,7 @@ from crawler_motion.planner.next_slot import (
 )
 from crawler_motion.planner.slot_inputs import SlotInputs
 from crawler_motion.planner.state import HOLDING, STANDING, STOPPING, WALK_STATES, WALKING
+from crawler_motion.planner.upfront import FirstSlot, first_slot
 
 
 def described(params: WalkParams, steps: int | None, source: str) -> str:
@@ -85,15 +86,15 @@ class WalkController:
             return True
         return self._plan_slot(now)
 
-    def start(self, params: WalkParams, steps: int | None, source: str, now: float) -> None:
-        """Start walking from STANDING at ``now`` [s]; refusals raise `CommandError`."""
-        seq = GaitSequencer(self.cfg, params)
+    def start(self, params: WalkParams, steps: int | None, source: str, now: float,
+              first: FirstSlot | None = None) -> None:
+        """Start walking from STANDING at ``now`` [s] (with ``first``, its first slot planned
+        ahead, else planned now); refusals raise `CommandError`."""
         try:
-            slot = seq.next_slot(stopping=False)
-            assert slot is not None
-            check_trajectories(self.robot, slot.legs, "the first slot")
+            first = first or first_slot(self.cfg, params)
         except (GaitError, KinematicsError, TrajectoryError) as exc:
             self.ctx.journal.refuse(f"walk refused: {exc}", now)
+        seq = first.seq
         self.clear()
         self.seq, self.params, self.steps_total = seq, params, steps
         self.steady_planned = self.steady_done = 0
@@ -102,7 +103,7 @@ class WalkController:
         self.inputs.asked = params
         self.ctx.state = WALKING
         self.foothold.start(self.ctx.hold)
-        self._commit(slot, seq, now)
+        self._commit(first.slot, seq, now, first.track, first.facts)
         self.ctx.journal.event("info", described(params, steps, source))
 
     def _commit(self, slot: Slot, seq: GaitSequencer, t0: float, track: Track | None = None,

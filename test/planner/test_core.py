@@ -924,3 +924,42 @@ def test_a_twist_while_holding_needs_stand_unless_a_resume_is_due(resuming, need
     with pytest.raises(CommandError) as info:
         clock.core.requests.twist(0.05, 0.0, 0.0, clock.core._base(), clock.t, resuming)
     assert needs_stand(str(info.value)) is needs, str(info.value)
+
+
+@pytest.mark.parametrize("how", ["command", "twist"])
+def test_a_first_slot_planned_up_front_changes_no_target(how, monkeypatch):
+    """The node runs a walk's up-front job without its lock; the job plans the first slot,
+    and the start under the lock only commits it: the same targets, bit for bit."""
+
+    def walk(up_front: bool) -> tuple[Clock, list[float]]:
+        clock = standing()
+        text = '{"command": "walk", "steps": 2}'
+        job = (clock.core.upfront_job(text=text) if how == "command"
+               else clock.core.upfront_job(twist=(0.05, 0.0, 0.0)))
+        assert job is not None
+        if up_front:
+            job()
+        planned: list[float] = []
+        real = WalkController.start
+
+        def counting(self, params, steps, source, now, first=None):
+            if first is None:
+                planned.append(now)
+            return real(self, params, steps, source, now, first)
+
+        monkeypatch.setattr(WalkController, "start", counting)
+        if how == "command":
+            clock.send(text)
+        else:
+            clock.core.on_twist(0.05, 0.0, 0.0, clock.t)
+        monkeypatch.undo()
+        clock.run(2.0)
+        return clock, planned
+
+    (plain, planned_plain), (early, planned_early) = walk(False), walk(True)
+    assert planned_plain and not planned_early
+    assert len(plain.targets) == len(early.targets)
+    for (ta, a), (tb, b) in zip(plain.targets, early.targets, strict=True):
+        assert ta == tb
+        np.testing.assert_array_equal(a.positions, b.positions)
+        np.testing.assert_array_equal(a.velocities, b.velocities)

@@ -43,3 +43,24 @@ def test_a_refusal_is_remembered_and_the_oldest_verdict_dropped(calls):
         check(WalkParams.defaults(CFG.gait, stride=0.001 * (i % 50), turn=0.001 * (i // 50)), 1)
     check(bad, 1)
     assert len(calls) == UPFRONT_CACHE_SIZE + 2  # the first verdict was dropped: checked again
+
+
+def test_a_prepared_first_slot_is_taken_once_and_only_for_its_parameters():
+    check = UpfrontCheck(CFG)
+    params = WalkParams.defaults(CFG.gait)
+    other = WalkParams.defaults(CFG.gait, stride=0.03)
+    check.prepare(params)
+    assert check.take_first(other) is None  # another walk: planned at its start
+    assert check.take_first(params) is None  # ... and the prepared one is gone
+    check.prepare(params)
+    first = check.take_first(params)
+    assert first is not None and first.params == params
+    assert first.facts is not None and first.facts.slot is first.slot
+    assert first.track is not None and first.facts.table is not None
+    assert check.take_first(params) is None  # once: its sequencer walks on from it
+
+
+def test_a_first_slot_that_cannot_be_walked_is_left_to_the_start():
+    check = UpfrontCheck(CFG)
+    check.prepare(WalkParams.defaults(CFG.gait, stride=0.0, body_height=0.2))
+    assert check.take_first(WalkParams.defaults(CFG.gait, stride=0.0, body_height=0.2)) is None
