@@ -74,6 +74,10 @@ class GoalConsole:
         """Send the goal and follow it; (arrived, last status line)."""
         if not self.spin_until(lambda: self.status is not None, min(timeout, 10.0)):
             return False, "no navigator answering on navigation_status"
+        # the goal is sent once: a sample published before the match is lost
+        if not self.spin_until(lambda: self._goal.get_subscription_count() > 0,
+                               min(timeout, 10.0)):
+            return False, "no navigator subscribed to goal_pose"
         refusals = self.status.get("refusals", 0)
         msg = self._pose_type()
         msg.header.frame_id = frame

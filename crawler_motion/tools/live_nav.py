@@ -33,6 +33,8 @@ from crawler_motion.tools.procstat import cpu_seconds
 #: Navigation states that end a goal or a follow, and mission states that end a mission.
 FINAL = ("ARRIVED", "FAILED", "IDLE")
 MISSION_FINAL = ("DONE", "FAILED", "CANCELLED", "REFUSED")
+#: Longest wait for a goal's, follow's or mission's publisher to match its subscriber [s].
+MATCH_TIMEOUT = 10.0
 
 
 @dataclass
@@ -200,7 +202,7 @@ class LiveNav:
         msg.pose.position.x, msg.pose.position.y = float(x), float(y)
         msg.pose.orientation.w = 1.0
         pub = self.node.create_publisher(PoseStamped, "goal_pose", 10)
-        return self._run(lambda: pub.publish(msg), timeout)
+        return self._run(pub, lambda: pub.publish(msg), timeout)
 
     def follow(self, length: float, side: str, timeout: float) -> LiveResult:
         """Send a follow command (navigator method ``apf``) and wait for its end."""
@@ -208,7 +210,7 @@ class LiveNav:
 
         pub = self.node.create_publisher(String, "follow_command", 10)
         text = json.dumps({"length": float(length), "side": side})
-        return self._run(lambda: pub.publish(String(data=text)), timeout)
+        return self._run(pub, lambda: pub.publish(String(data=text)), timeout)
 
     def mission(self, text: str, timeout: float,
                 progress: Callable[[dict[str, Any]], None] | None = None) -> LiveResult:
@@ -217,13 +219,20 @@ class LiveNav:
         from std_msgs.msg import String
 
         pub = self.node.create_publisher(String, "mission", 10)
-        return self._run(lambda: pub.publish(String(data=text)), timeout, mission=True,
+        return self._run(pub, lambda: pub.publish(String(data=text)), timeout, mission=True,
                          progress=progress)
 
-    def _run(self, send: Any, timeout: float, mission: bool = False,
+    def _run(self, pub: Any, send: Any, timeout: float, mission: bool = False,
              progress: Callable[[dict[str, Any]], None] | None = None) -> LiveResult:
+        """``send`` once on ``pub`` after it matched its subscriber (a sample published
+        before the match is lost), then watch the run for up to ``timeout`` [s]."""
         w = self.watch
-        time.sleep(0.5)  # publisher matched
+        end = time.monotonic() + min(timeout, MATCH_TIMEOUT)
+        while pub.get_subscription_count() == 0 and time.monotonic() < end:
+            time.sleep(0.05)
+        if pub.get_subscription_count() == 0:
+            raise TimeoutError(f"nothing subscribes to {pub.topic_name} after "
+                               f"{min(timeout, MATCH_TIMEOUT):g} s: is the navigator running?")
         cpu0 = {n: cpu_seconds(p.pid) for n, p in self.sup.procs.items()}
         began = time.monotonic()
         with w.lock:

@@ -130,6 +130,10 @@ def walking_navigator(tmp_path: Path, domain: int, procs: StackProcesses | None 
     try:
         assert world.spin_until(lambda: world.status.get("state") == "IDLE", 20.0), (
             procs.log_tails(20))
+        # the goal is sent once: only after it matched the navigator's subscription (a
+        # navigation_status heard says nothing of it; a sample sent before the match is lost)
+        assert world.spin_until(lambda: world.goal.get_subscription_count() > 0, 10.0), (
+            procs.log_tails(20))
         world.send_goal(0.8)
         assert world.spin_until(world.walking, 5.0), procs.log_tails(20)
         yield world

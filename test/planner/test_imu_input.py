@@ -29,6 +29,7 @@ from crawler_motion.planner.imu_input import IMU_IDLE_PERIOD, IMU_TIMEOUT, imu_r
 from crawler_motion.planner.moves import sitting_pose
 from crawler_motion.planner.node import PlannerNode
 from crawler_motion.testing.polling import wait_until
+from crawler_motion.tools.console import TRANSIENT_REFUSALS
 
 CFG = load_config()
 NAMES = list(CFG.robot.joint_names)
@@ -100,6 +101,24 @@ class Probe(Node):
     def last(self) -> dict:
         return self.statuses[-1] if self.statuses else {}
 
+    def send_until_taken(self, text: str, state: str, attempts: int = 3) -> None:
+        """Send a command until the planner reaches ``state`` with it; a refusal that clears
+        by itself (a resume after a stalled tick on a loaded machine) is waited out and the
+        command sent again (as test_node's `Probe.send_until_taken`)."""
+        for _ in range(attempts):
+            before = self.last().get("refusals", 0)
+            self.gait_command.publish(String(data=text))
+            assert wait_until(lambda n=before: self.last().get("state") == state
+                              or self.last().get("refusals", 0) > n, 5.0), self.last()
+            if self.last().get("state") == state:
+                return
+            status = self.last()
+            assert any(word in status["last_refusal"] for word in TRANSIENT_REFUSALS), status
+            assert wait_until(lambda: self.last()["state"] not in ("MOVING", "HOLDING")
+                              and not self.last()["resuming"] and not self.last()["paused"],
+                              5.0), self.last()
+        raise AssertionError(f"{text} refused {attempts} times: {self.last()}")
+
 
 @contextlib.contextmanager
 def running(overrides: list[Parameter]) -> Iterator[tuple[PlannerNode, Probe]]:
@@ -153,8 +172,7 @@ def test_the_imu_levels_the_walk_and_its_absence_is_reported(stack):
         if wait_until(lambda: probe.last().get("state") == "STANDING", 0.2):
             break
     until(lambda: probe.last().get("state") == "STANDING", 10.0, "standing")
-    probe.gait_command.publish(String(data='{"command": "walk"}'))
-    until(lambda: probe.last().get("state") == "WALKING", 5.0, "walking")
+    probe.send_until_taken('{"command": "walk"}', "WALKING")  # a resume may refuse it
     # the body measured rolled left by 0.05 rad: the next slots roll it back (negative roll)
     until(lambda: planner.core.walk.foothold.pose.target[1] < -0.04, 10.0, "levelled")
     status = probe.last()["imu"]

@@ -122,7 +122,7 @@ class Probe(Node):
             if status["state"] == state:
                 return status, waited
             assert any(word in status["last_refusal"] for word in TRANSIENT_REFUSALS), status
-            self.wait_status(lambda s: not s["resuming"] and not s["paused"], since=mark)
+            self.wait_status(settled, since=mark)
         raise AssertionError(f"{text} refused {attempts} times: {self.last_status()}")
 
     def commands_between(self, t0: float, t1: float) -> list[JointState]:
@@ -133,6 +133,13 @@ class Probe(Node):
         with self.lock:
             self.commands.clear()
             self.statuses.clear()
+
+
+def settled(status: dict) -> bool:
+    """No resume due or moving (its move is MOVING with ``resuming`` already false), no
+    pause: a command refused for one of them may be sent again."""
+    return (status["state"] not in ("MOVING", "HOLDING") and not status["resuming"]
+            and not status["paused"])
 
 
 class Ros:

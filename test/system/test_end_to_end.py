@@ -159,7 +159,8 @@ def test_body_pose_end_to_end_keeps_the_feet_on_the_ground(stack: dict[str, Any]
     assert ok, f"{message}\n{stack['logs']()}"
     pose = {"x": 0.015, "z": -0.01, "pitch": 0.1, "yaw": -0.1}
     for _ in range(3):  # a loaded machine may starve the planner: the move stops, says so
-        ok, message = console.run({"command": "pose", **pose}, 30.0)
+        # (starved while it stands, the planner refuses the pose until its resume is done)
+        ok, message = console.run_when_ready({"command": "pose", **pose}, 30.0)
         if ok or "send the pose again" not in message:
             break
         assert console.wait_until(lambda: not console.status["resuming"], 30.0), message
@@ -169,9 +170,10 @@ def test_body_pose_end_to_end_keeps_the_feet_on_the_ground(stack: dict[str, Any]
     measured = record["states"][-1][2].reshape(4, 3)
     world = forward_kinematics(CFG.robot, measured) @ rpy_matrix(p[3:]).T + p[:3]
     np.testing.assert_allclose(world, CFG.robot.standing_feet(), atol=1e-3)
-    ok, message = console.run({"command": "walk", "steps": 1}, 10.0)
+    # a resume after a starved tick refuses it first, for that reason: it is sent again
+    ok, message = console.run_when_ready({"command": "walk", "steps": 1}, 10.0)
     assert not ok and "the body is posed" in message and "send stand first" in message
-    ok, message = console.run({"command": "stand"}, 30.0)
+    ok, message = console.run_when_ready({"command": "stand"}, 30.0)
     assert ok and message == "STANDING", message
     console.spin_for(0.5)
     feet = forward_kinematics(CFG.robot, record["states"][-1][2].reshape(4, 3))
