@@ -115,7 +115,7 @@ class Footholds:
         lift from their footholds, the body heads for its new pose. ``facts``: its
         `slot_facts`, computed ahead (else now)."""
         if facts is None or facts.slot is not slot:
-            facts = slot_facts(slot, self.robot)
+            facts = slot_facts(slot)  # planned in the tick: no joint table (ms more there)
         if self._previous is not None:
             self._base += self._previous
         self._previous = slot.duration
@@ -269,11 +269,12 @@ class SlotFacts:
     swings: tuple[tuple[int, float, float, float], ...]
     start_xy: np.ndarray  # (n_legs, 2) the feet at the slot's start [m]
     #: the blind plan's joints, tabulated (`JointTable`; None: the tick solves them)
-    table: JointTable | None
+    table: JointTable | None = None
 
 
-def slot_facts(slot: Slot, robot: RobotConfig) -> SlotFacts:
-    """The `SlotFacts` of ``slot`` for ``robot``, its `JointTable` included (~5 ms)."""
+def slot_facts(slot: Slot, robot: RobotConfig | None = None) -> SlotFacts:
+    """The `SlotFacts` of ``slot``; with ``robot``, its `JointTable` too (3-5 ms; tens of ms
+    for calibrated legs): only where the slot is planned ahead of the tick."""
     n_legs = len(slot.legs)
     directions: list[np.ndarray | None] = [None] * n_legs
     swings = []
@@ -285,7 +286,7 @@ def slot_facts(slot: Slot, robot: RobotConfig) -> SlotFacts:
                            float(leg.evaluate(0.0)[0][0, 2]),
                            float(leg.evaluate(slot.swing_time)[0][0, 2])))
     xy = np.array([leg.evaluate(0.0)[0][0, :2] for leg in slot.legs])
-    table = JointTable.build(slot.legs, robot)
+    table = None if robot is None else JointTable.build(slot.legs, robot)
     return SlotFacts(slot, tuple(directions), tuple(swings), xy, table)
 
 
