@@ -165,4 +165,3 @@ class JointTable:
             put_q(((a3 * u + a2) * u + a1) * u + a0)
             put_qd(((b3 * u + b2) * u + b1) * u + b0)
         return q, qd
-

@@ -202,7 +202,7 @@ class LiveNav:
         msg.pose.position.x, msg.pose.position.y = float(x), float(y)
         msg.pose.orientation.w = 1.0
         pub = self.node.create_publisher(PoseStamped, "goal_pose", 10)
-        return self._run(pub, lambda: pub.publish(msg), timeout)
+        return self._run(pub, msg, timeout)
 
     def follow(self, length: float, side: str, timeout: float) -> LiveResult:
         """Send a follow command (navigator method ``apf``) and wait for its end."""
@@ -210,7 +210,7 @@ class LiveNav:
 
         pub = self.node.create_publisher(String, "follow_command", 10)
         text = json.dumps({"length": float(length), "side": side})
-        return self._run(pub, lambda: pub.publish(String(data=text)), timeout)
+        return self._run(pub, String(data=text), timeout)
 
     def mission(self, text: str, timeout: float,
                 progress: Callable[[dict[str, Any]], None] | None = None) -> LiveResult:
@@ -219,12 +219,12 @@ class LiveNav:
         from std_msgs.msg import String
 
         pub = self.node.create_publisher(String, "mission", 10)
-        return self._run(pub, lambda: pub.publish(String(data=text)), timeout, mission=True,
+        return self._run(pub, String(data=text), timeout, mission=True,
                          progress=progress)
 
-    def _run(self, pub: Any, send: Any, timeout: float, mission: bool = False,
+    def _run(self, pub: Any, msg: Any, timeout: float, mission: bool = False,
              progress: Callable[[dict[str, Any]], None] | None = None) -> LiveResult:
-        """``send`` once on ``pub`` after it matched its subscriber (a sample published
+        """Publish ``msg`` once on ``pub`` after it matched its subscriber (a sample published
         before the match is lost), then watch the run for up to ``timeout`` [s]."""
         w = self.watch
         end = time.monotonic() + min(timeout, MATCH_TIMEOUT)
@@ -238,7 +238,7 @@ class LiveNav:
         with w.lock:
             w.path.clear()
         w.discs.clear()
-        send()
+        pub.publish(msg)
         end = began + timeout
         def state() -> Any:
             return w.mission.get("state") if mission else w.status.get("state")
